@@ -1,0 +1,297 @@
+"""S1 -- planar atmospheric descent of a capsule's centre of mass (Earth).
+
+State ``x = (x1, x2, x3, x4)``: ``x1, x3`` position [m] and ``x2, x4`` velocity [m/s] in a
+geocentric Cartesian frame; control ``u`` in ``[-0.2, 0.2]`` is the relative change of drag.
+
+    dx1/dt = x2
+    dx2/dt = -g0 Rz^2 x1 / r^3 - (1+u) S rho0 / m * x2 * v * exp(-lam (r - Rz))
+    dx3/dt = x4
+    dx4/dt = -g0 Rz^2 x3 / r^3 - (1+u) S rho0 / m * x4 * v * exp(-lam (r - Rz))
+
+The flight ends at the first time the altitude ``h = r - Rz`` reaches ``hf`` (located inside the
+integration step) or at ``t+``.
+
+This module holds the only definition of these equations; the :class:`Reentry` FMU and the
+in-process code (tests, open-loop optimisation) call the same functions.
+
+References
+----------
+Seed 000: A.I. Diveev, E.Yu. Shmalko, "Multicriterial structural-parametric synthesis of the
+control system for spacecraft descent by the network operator method", eqs. (1)-(8), (11)-(23).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
+from models.integrators import locate_crossing, rk4_step_with_k1
+
+__all__ = ["ReentryParams", "SECOND_SCENARIO", "rhs", "initial_state", "altitude", "downrange",
+           "deviations", "loads", "simulate", "Reentry", "U_BOUNDS", "T_PLUS"]
+
+#: Control bounds of SPEC S1 (relative change of drag).
+U_BOUNDS = (-0.2, 0.2)
+#: Final time limit t+ [s] of SPEC S1.
+T_PLUS = 300.0
+#: Default RK4 sub-step inside the FMU [s] (accuracy: see models/README.md).
+DT_INTEGRATION = 0.25
+
+
+@dataclass(frozen=True)
+class ReentryParams:
+    """Parameters of the S1 plant (SI units), defaults = the default scenario of SPEC S1."""
+
+    m: float = 5000.0            #: capsule mass [kg]
+    S: float = 3.5               #: reference area [m^2]
+    rho0: float = 1.22           #: sea-level air density [kg/m^3]
+    lam: float = 1.35e-4         #: inverse density scale height [1/m]
+    g0: float = 9.81             #: surface gravity [m/s^2]
+    Rz: float = 6_371_000.0      #: Earth radius [m]
+    V0: float = 7500.0           #: entry speed [m/s]          ([choice], SPEC S1)
+    h0: float = 100_000.0        #: entry altitude [m]         ([choice], SPEC S1)
+    beta0: float = math.radians(-2.1)  #: entry path angle [rad] ([choice], SPEC S1)
+    hf: float = 10_000.0         #: final altitude [m]
+    Lf: float = 1_400_000.0      #: required down-range at hf [m]
+
+    def validate(self) -> "ReentryParams":
+        """Raise :class:`ParameterError` naming the first invalid parameter."""
+        for f in fields(self):
+            require_finite(f.name, getattr(self, f.name))
+        for name in ("m", "S", "rho0", "lam", "g0", "Rz", "V0", "h0", "Lf"):
+            require_positive(name, getattr(self, name))
+        if not 0.0 <= self.hf < self.h0:
+            raise ParameterError(f"parameter hf must satisfy 0 <= hf < h0, got hf={self.hf}, "
+                                 f"h0={self.h0}")
+        if not -math.pi / 2 < self.beta0 < math.pi / 2:
+            raise ParameterError(f"parameter beta0 must be in (-pi/2, pi/2) rad, got {self.beta0}")
+        return self
+
+    def constants(self) -> tuple:
+        """The argument tuple of :func:`rhs` after the control: (g0 Rz^2, S rho0/m, lam, Rz)."""
+        return (self.g0 * self.Rz ** 2, self.S * self.rho0 / self.m, self.lam, self.Rz)
+
+    def with_(self, **changes) -> "ReentryParams":
+        return replace(self, **changes)
+
+
+#: SPEC S1's second scenario for robustness checks.
+SECOND_SCENARIO = ReentryParams(V0=8000.0, h0=80_000.0, beta0=math.radians(-1.6))
+
+
+def rhs(x, u, gm, kd, lam, rz):
+    """Right-hand side of S1 eqs. (1)-(4).
+
+    Parameters
+    ----------
+    x : tuple of 4 float
+        State (x1 [m], x2 [m/s], x3 [m], x4 [m/s]).
+    u : float
+        Relative change of drag [-].
+    gm, kd, lam, rz : float
+        ``g0 Rz^2`` [m^3/s^2], ``S rho0 / m`` [1/m], ``lam`` [1/m], ``Rz`` [m]
+        (:meth:`ReentryParams.constants`).
+    """
+    x1, x2, x3, x4 = x
+    r2 = x1 * x1 + x3 * x3
+    r = math.sqrt(r2)
+    g = gm / (r2 * r)
+    d = (1.0 + u) * kd * math.sqrt(x2 * x2 + x4 * x4) * math.exp(-lam * (r - rz))
+    return (x2, -g * x1 - d * x2, x4, -g * x3 - d * x4)
+
+
+def initial_state(p: ReentryParams) -> tuple:
+    """S1 eq. (5): (0, V0 cos beta0, Rz + h0, V0 sin beta0)."""
+    return (0.0, p.V0 * math.cos(p.beta0), p.Rz + p.h0, p.V0 * math.sin(p.beta0))
+
+
+def altitude(x, rz: float) -> float:
+    """Altitude h = r - Rz [m] (eq. 11)."""
+    return math.hypot(x[0], x[2]) - rz
+
+
+def downrange(x, rz: float) -> float:
+    """Down-range L = Rz atan(x1/x3) [m] (eq. 12; SPEC S1 on the misprint of eq. 8)."""
+    return rz * math.atan2(x[0], x[2])
+
+
+def deviations(x, p: ReentryParams):
+    """Controller inputs (y1, y2): deviations from the straight line (0, h0)-(Lf, hf) in (L, h).
+
+    ``y1`` [-] is the relative altitude deviation (eq. 15), ``y2`` [rad] the difference between
+    the flight-path angle and the angle of the straight line to the target (eq. 23).
+    """
+    x1, x2, x3, x4 = x
+    r = math.hypot(x1, x3)
+    h = r - p.Rz
+    L = p.Rz * math.atan2(x1, x3)
+    y1 = h / p.h0 - ((p.hf / p.h0 - 1.0) / p.Lf * L + 1.0)
+    den = p.Rz * (x2 * x3 - x1 * x4)
+    gamma = math.atan((x1 * x2 + x3 * x4) * r / den) if den != 0.0 else math.copysign(
+        math.pi / 2, x1 * x2 + x3 * x4)
+    to_go = p.Lf - L
+    gamma_line = math.atan((h - p.hf) / to_go) if to_go != 0.0 else math.copysign(
+        math.pi / 2, h - p.hf)
+    return y1, gamma - gamma_line
+
+
+def loads(x, dx, kd: float, lam: float, rz: float, g0: float, u: float):
+    """(load, aero_load) [-] at state ``x`` with derivative ``dx``.
+
+    ``load`` is the paper's J1 integrand r^2 sqrt(dx2^2 + dx4^2) / (Rz^2 g0) (eq. 7, total
+    acceleration); ``aero_load`` the drag acceleration over g0.
+    """
+    x1, x2, x3, x4 = x
+    r2 = x1 * x1 + x3 * x3
+    load = r2 * math.hypot(dx[1], dx[3]) / (rz * rz * g0)
+    v2 = x2 * x2 + x4 * x4
+    aero = (1.0 + u) * kd * v2 * math.exp(-lam * (math.sqrt(r2) - rz)) / g0
+    return load, aero
+
+
+class FlightIntegrator:
+    """Advance the S1 plant with RK4 sub-steps, stop exactly at h = hf, track the maximum loads.
+
+    The one integrator of the plant: the :class:`Reentry` FMU owns one, and in-process code
+    (:func:`simulate`) uses the same class.
+    """
+
+    def __init__(self, p: ReentryParams, dt: float = DT_INTEGRATION):
+        self.p = p.validate()
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ParameterError(f"integration step dt must be > 0, got {dt!r}")
+        self.dt = dt
+        self.args = p.constants()
+        self.reset()
+
+    def reset(self):
+        self.t = 0.0
+        self.x = initial_state(self.p)
+        self.landed = False
+        self.diverged = False
+        self.t_land = math.nan
+        self.load_max = 0.0
+        self.aero_load_max = 0.0
+        self.u = 0.0
+        self._sample(self.x, rhs(self.x, 0.0, *self.args), 0.0)
+
+    def _sample(self, x, dx, u):
+        p = self.p
+        self.load, self.aero_load = loads(x, dx, self.args[1], p.lam, p.Rz, p.g0, u)
+        if self.load > self.load_max:
+            self.load_max = self.load
+        if self.aero_load > self.aero_load_max:
+            self.aero_load_max = self.aero_load
+
+    def advance(self, t_end: float, u: float) -> None:
+        """Integrate from ``self.t`` to ``t_end`` with the control held at ``u``."""
+        if self.landed or self.diverged:
+            return
+        span = t_end - self.t
+        if span <= 0.0:
+            return
+        n = max(1, math.ceil(span / self.dt - 1e-9))
+        h = span / n
+        args = (u,) + self.args
+        rz_hf = self.p.Rz + self.p.hf
+        x = self.x
+        t0 = self.t
+        for i in range(n):
+            k1 = rhs(x, *args)
+            self._sample(x, k1, u)
+            xn = rk4_step_with_k1(rhs, x, k1, h, args)
+            r_new = math.hypot(xn[0], xn[2])
+            if not math.isfinite(r_new):
+                self.diverged = True
+                self.x, self.t = x, t0 + i * h
+                return
+            if r_new <= rz_hf:
+                g = lambda y: math.hypot(y[0], y[2]) - rz_hf  # noqa: E731
+                s, xn = locate_crossing(rhs, x, k1, h, args, g, g(x), r_new - rz_hf)
+                self.x = xn
+                self.t = self.t_land = t0 + (i + s) * h
+                self.landed = True
+                self._sample(xn, rhs(xn, *args), u)
+                return
+            x = xn
+        self.x, self.t = x, t_end
+        self.u = u
+
+
+def simulate(p: ReentryParams = ReentryParams(), control=lambda t, x: 0.0, step: float = 1.0,
+             t_plus: float = T_PLUS, dt: float = DT_INTEGRATION) -> FlightIntegrator:
+    """Fly S1 in-process with ``u = control(t, x)`` held over communication steps ``step`` [s].
+
+    Returns the finished :class:`FlightIntegrator` (``t_land``, ``x``, ``load_max``...).
+    """
+    fi = FlightIntegrator(p, dt)
+    k = 0
+    while not fi.landed and not fi.diverged and fi.t < t_plus - 1e-9:
+        u = min(max(control(fi.t, fi.x), U_BOUNDS[0]), U_BOUNDS[1])
+        k += 1
+        fi.advance(min(k * step, t_plus), u)
+    return fi
+
+
+class Reentry(SlaveBase):
+    """FMU of the S1 plant: input ``u``, outputs the state, altitude, range, loads, y1, y2."""
+
+    description = ("S1 Earth atmospheric descent of a capsule (planar, geocentric Cartesian); "
+                   "seed 000, Diveev & Shmalko")
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        d = ReentryParams()
+        for name, desc in [("m", "capsule mass [kg]"), ("S", "reference area [m2]"),
+                           ("rho0", "sea-level air density [kg/m3]"),
+                           ("lam", "inverse density scale height [1/m]"),
+                           ("g0", "surface gravity [m/s2]"), ("Rz", "Earth radius [m]"),
+                           ("V0", "entry speed [m/s]"), ("h0", "entry altitude [m]"),
+                           ("beta0", "entry path angle [rad]"), ("hf", "final altitude [m]"),
+                           ("Lf", "required down-range at hf [m]")]:
+            self.parameter(name, getattr(d, name), desc)
+        self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
+        self.input("u", 0.0, "relative change of drag, clipped to [-0.2, 0.2] [1]")
+        fi = lambda: self._fi  # noqa: E731
+        for k in range(4):
+            unit = "m" if k % 2 == 0 else "m/s"
+            self.output(f"x{k + 1}", f"state x{k + 1} [{unit}]", getter=lambda k=k: fi().x[k])
+        self.output("h", "altitude r - Rz [m]", getter=lambda: altitude(fi().x, fi().p.Rz))
+        self.output("L", "down-range Rz atan(x1/x3) [m]",
+                    getter=lambda: downrange(fi().x, fi().p.Rz))
+        self.output("load", "load factor r2 |a| / (Rz2 g0) (J1 integrand) [1]",
+                    getter=lambda: fi().load)
+        self.output("aero_load", "drag acceleration / g0 [1]", getter=lambda: fi().aero_load)
+        self.output("load_max", "running maximum of load over all sub-steps (J1) [1]",
+                    getter=lambda: fi().load_max)
+        self.output("aero_load_max", "running maximum of aero_load [1]",
+                    getter=lambda: fi().aero_load_max)
+        self.output("y1", "relative altitude deviation from the line (0,h0)-(Lf,hf) [1]",
+                    getter=lambda: deviations(fi().x, fi().p)[0])
+        self.output("y2", "path-angle deviation from the line to the target [rad]",
+                    getter=lambda: deviations(fi().x, fi().p)[1])
+        self.output("t_land", "time of the first h <= hf, -1 before [s]",
+                    getter=lambda: fi().t_land if fi().landed else -1.0)
+        self.int_output("landed", "1 from the first time h <= hf on (2 if the integration "
+                        "diverged) [1]",
+                        getter=lambda: 2 if fi().diverged else int(fi().landed))
+        self.apply_resource_defaults()
+        self.prepare()
+
+    def _params(self) -> ReentryParams:
+        return ReentryParams(**{f.name: getattr(self, f.name) for f in fields(ReentryParams)})
+
+    def check_parameters(self) -> None:
+        self._params().validate()
+        require_positive("dt", self.dt)
+
+    def prepare(self) -> None:
+        self._fi = FlightIntegrator(self._params(), self.dt)
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        u = self.u
+        if not math.isfinite(u):
+            u = 0.0
+        self._fi.advance(current_time + step_size, min(max(u, U_BOUNDS[0]), U_BOUNDS[1]))
+        return True
+

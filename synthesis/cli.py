@@ -1,0 +1,53 @@
+"""Command line of descent-fmus: ``descent-fmus <command> ...`` (``--help`` lists them).
+
+Each system contributes its sub-commands from a module of ``synthesis.commands`` that defines
+``register(subparsers)``; every command accepts ``--json`` for a machine-readable summary.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+
+#: Modules that add sub-commands (one line per system).
+COMMAND_MODULES = [
+    "synthesis.commands.reentry",
+]
+
+
+class CliError(Exception):
+    """A user error: printed as one line, exit code 2, no traceback."""
+
+
+def emit(args, summary: dict, text: str) -> None:
+    """Print ``summary`` as JSON if ``--json`` was given, else the human-readable ``text``."""
+    if getattr(args, "json", False):
+        print(json.dumps(summary, indent=2, default=float))
+    else:
+        print(text)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    ap = argparse.ArgumentParser(prog="descent-fmus", description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for name in COMMAND_MODULES:
+        importlib.import_module(name).register(sub)
+    return ap
+
+
+def main(argv=None) -> int:
+    ap = build_parser()
+    args = ap.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except CliError as exc:
+        print(f"descent-fmus {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"descent-fmus {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,336 @@
+"""Closed-loop co-simulation of a plant FMU and a controller FMU with fmpy.
+
+Both FMUs are extracted and instantiated once; every run resets them, applies new start values
+and steps them on the communication grid ``t_k = t0 + k*h`` (integer ``k``, no drift).
+
+Master algorithm (one communication step, Gauss-Seidel with a direct feed-through controller):
+read the plant outputs at ``t_k``, set them as controller inputs, read the controller outputs
+(``u_k = phi(y(t_k))``), set them as plant inputs, then ``doStep`` both FMUs over ``[t_k, t_k+h]``.
+This is also what fmpy's container FMU does (connections are updated after initialisation and
+after every step, plant -> controller first), so ``fmus/*ClosedLoop.fmu`` run by ``fmpy simulate``
+gives the same trajectory as :meth:`ClosedLoop.run`.
+
+The hot loop calls fmpy's ``fmi2GetReal``/``fmi2SetReal``/``fmi2DoStep`` bindings with
+pre-allocated ctypes buffers: the per-step cost is dominated by the FMUs themselves.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+import shutil
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from fmpy import calloc, extract, free, read_model_description
+from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2True)
+
+__all__ = ["Wiring", "ClosedLoop", "ClosedLoopResult", "FMUNotFoundError", "FMUError",
+           "load_slave"]
+
+
+class FMUNotFoundError(FileNotFoundError):
+    """An FMU file the co-simulation needs does not exist (run ``python build_fmus.py``)."""
+
+
+class FMUError(RuntimeError):
+    """An FMU call failed; the message carries what the FMU logged."""
+
+
+@dataclass(frozen=True)
+class Wiring:
+    """How a plant and a controller are connected -- one definition for every tool.
+
+    Used by :class:`ClosedLoop` (fmpy master in Python), by ``synthesis.export`` for the container
+    FMU and the SSP file, and by the GA's evaluator.
+
+    Attributes
+    ----------
+    name : str
+        Name of the closed-loop system (also of its container FMU), e.g. ``"ReentryClosedLoop"``.
+    plant, controller : str
+        Model identifiers (= FMU file stems) of the two components.
+    to_controller : tuple of (str, str)
+        (plant output, controller input) pairs.
+    to_plant : tuple of (str, str)
+        (controller output, plant input) pairs.
+    step : float
+        Communication step [s].
+    stop_time : float
+        Final time t+ [s].
+    stop_flag : str or None
+        Integer plant output that ends the flight when non-zero (e.g. ``"landed"``).
+    exposed : tuple of (str, str, str)
+        (container name, "plant" | "controller", component variable) shown by the container FMU.
+    """
+
+    name: str
+    plant: str
+    controller: str
+    to_controller: tuple
+    to_plant: tuple
+    step: float
+    stop_time: float
+    stop_flag: str | None = None
+    exposed: tuple = ()
+    description: str = ""
+
+
+@dataclass
+class ClosedLoopResult:
+    """Outcome of one closed-loop run.
+
+    Attributes
+    ----------
+    time : ndarray
+        Communication points [s] up to the stop.
+    outputs : dict of str -> ndarray
+        Recorded plant outputs and controller outputs (``"ctrl." + name``) at ``time``.
+    final : dict of str -> float
+        Plant outputs at the end of the run (after the stop flag was raised).
+    stopped : bool
+        True if the stop flag ended the run before ``stop_time``.
+    steps : int
+        Communication steps taken.
+    """
+
+    time: np.ndarray
+    outputs: dict
+    final: dict
+    stopped: bool
+    steps: int
+    flag: int = 0
+
+    def __getitem__(self, name):
+        return self.outputs[name]
+
+
+def load_slave(path, instance_name: str, log: list | None = None) -> FMU2Slave:
+    """Extract and instantiate an FMI 2.0 co-simulation FMU once (fmpy ``FMU2Slave``)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FMUNotFoundError(f"FMU not found: {path} -- build the FMUs first with "
+                               f"'python build_fmus.py'")
+    md = read_model_description(str(path))
+    unzipdir = extract(str(path))
+    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
+                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
+    fmu._descent_unzipdir = unzipdir
+    fmu._descent_md = md
+
+    def logger(component, instance, status, category, message):
+        if log is not None:
+            log.append(message.decode(errors="replace") if message else "")
+
+    callbacks = fmi2CallbackFunctions()
+    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
+    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+    fmu._descent_callbacks = callbacks  # keep a reference: ctypes callbacks must outlive the FMU
+    fmu.instantiate(callbacks=callbacks, loggingOn=True)
+    return fmu
+
+
+class _Component:
+    """One FMU instance with name -> (type, value reference) look-up and set helpers."""
+
+    def __init__(self, path, role: str):
+        self.log: list[str] = []
+        self.path = Path(path)
+        self.fmu = load_slave(path, role, self.log)
+        self.md = self.fmu._descent_md
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.role = role
+
+    def var(self, name):
+        try:
+            return self.vars[name]
+        except KeyError:
+            raise KeyError(f"{self.md.modelName} has no variable {name!r}") from None
+
+    def vr(self, name) -> int:
+        return self.var(name).valueReference
+
+    def set_values(self, values: dict) -> None:
+        reals, ints = ([], []), ([], [])
+        for name, value in values.items():
+            v = self.var(name)
+            if v.type == "Real":
+                value = float(value)
+                if not math.isfinite(value):
+                    raise ValueError(f"{self.md.modelName}: value of {name} must be finite, "
+                                     f"got {value!r}")
+                reals[0].append(v.valueReference)
+                reals[1].append(value)
+            elif v.type in ("Integer", "Enumeration"):
+                ints[0].append(v.valueReference)
+                ints[1].append(int(value))
+            elif v.type == "Boolean":
+                self.fmu.setBoolean([v.valueReference], [bool(value)])
+            else:
+                raise TypeError(f"cannot set {v.type} variable {name}")
+        if reals[0]:
+            self.fmu.setReal(*reals)
+        if ints[0]:
+            self.fmu.setInteger(*ints)
+
+    def call(self, what, fn, *args):
+        del self.log[:]
+        try:
+            return fn(*args)
+        except Exception as exc:  # fmpy raises FMICallException; add what the FMU said
+            said = "; ".join(m.strip() for m in self.log if m.strip())
+            raise FMUError(f"{self.md.modelName}: {what} failed"
+                           + (f": {said}" if said else f" ({exc})")) from None
+
+    def free(self):
+        try:
+            self.fmu.terminate()
+        except Exception:
+            pass
+        self.fmu.freeInstance()
+        shutil.rmtree(self.fmu._descent_unzipdir, ignore_errors=True)
+
+
+class ClosedLoop:
+    """A plant FMU and a controller FMU in closed loop, loaded once and reset per run.
+
+    Parameters
+    ----------
+    wiring : Wiring
+        The connections and the communication step.
+    plant_fmu, controller_fmu : path-like
+        The FMU files.
+    record : sequence of str, optional
+        Plant outputs to record at every communication point (the connected ones are always
+        available); controller outputs as ``"ctrl.<name>"``.
+    """
+
+    def __init__(self, wiring: Wiring, plant_fmu, controller_fmu, record=()):
+        self.wiring = wiring
+        self.plant = _Component(plant_fmu, "plant")
+        try:
+            self.ctrl = _Component(controller_fmu, "controller")
+        except Exception:
+            self.plant.free()
+            raise
+        p, c = self.plant, self.ctrl
+        self._y_vr = (ctypes.c_uint * len(wiring.to_controller))(
+            *[p.vr(a) for a, _ in wiring.to_controller])
+        self._x_vr = (ctypes.c_uint * len(wiring.to_controller))(
+            *[c.vr(b) for _, b in wiring.to_controller])
+        self._u_vr = (ctypes.c_uint * len(wiring.to_plant))(*[c.vr(a) for a, _ in wiring.to_plant])
+        self._pu_vr = (ctypes.c_uint * len(wiring.to_plant))(*[p.vr(b) for _, b in wiring.to_plant])
+        self._y = (ctypes.c_double * len(wiring.to_controller))()
+        self._u = (ctypes.c_double * len(wiring.to_plant))()
+        self._flag_vr = (ctypes.c_uint * 1)(p.vr(wiring.stop_flag)) if wiring.stop_flag else None
+        self._flag = (ctypes.c_int * 1)()
+        self.record = list(record)
+        self._plant_out = [v.name for v in p.md.modelVariables
+                           if v.causality == "output" and v.type == "Real"]
+
+    def close(self):
+        self.plant.free()
+        self.ctrl.free()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def _init(self, comp: _Component, values: dict, t0: float, t1: float):
+        fmu = comp.fmu
+        comp.call("reset", fmu.reset)
+        comp.call("setting start values", comp.set_values, values)
+        comp.call("setupExperiment", fmu.setupExperiment, None, t0, t1)
+        comp.call("enterInitializationMode", fmu.enterInitializationMode)
+        comp.call("exitInitializationMode", fmu.exitInitializationMode)
+
+    def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
+            stop_time: float | None = None, step: float | None = None,
+            record: bool = False) -> ClosedLoopResult:
+        """Fly one closed loop from t = 0; stop on the plant's stop flag or at ``stop_time``.
+
+        Parameters
+        ----------
+        plant_values, controller_values : dict, optional
+            Start values (parameters) by variable name.
+        stop_time, step : float, optional
+            Override the wiring's t+ and communication step [s].
+        record : bool
+            Record the trajectories (``self.record`` plus the connected signals).
+        """
+        w = self.wiring
+        t_end = w.stop_time if stop_time is None else float(stop_time)
+        h = w.step if step is None else float(step)
+        if not (h > 0 and math.isfinite(h) and t_end > 0 and math.isfinite(t_end)):
+            raise ValueError(f"need a finite step > 0 and stop time > 0, got step={h}, "
+                             f"stop_time={t_end}")
+        self._init(self.plant, plant_values or {}, 0.0, t_end)
+        self._init(self.ctrl, controller_values or {}, 0.0, t_end)
+
+        pf, cf = self.plant.fmu, self.ctrl.fmu
+        pc, cc = pf.component, cf.component
+        get_real_p, set_real_p, step_p = pf.fmi2GetReal, pf.fmi2SetReal, pf.fmi2DoStep
+        set_real_c, get_real_c, step_c = cf.fmi2SetReal, cf.fmi2GetReal, cf.fmi2DoStep
+        get_int_p = pf.fmi2GetInteger
+        ny, nu = len(self._y), len(self._u)
+        y_vr, x_vr, u_vr, pu_vr, y, u = (self._y_vr, self._x_vr, self._u_vr, self._pu_vr,
+                                         self._y, self._u)
+        flag_vr, flag = self._flag_vr, self._flag
+
+        rec_names = [n for n in self.record if not n.startswith("ctrl.")] if record else []
+        rec_vr = (ctypes.c_uint * len(rec_names))(*[self.plant.vr(n) for n in rec_names])
+        rec_buf = (ctypes.c_double * len(rec_names))()
+        times, rows_y, rows_u, rows_rec = [], [], [], []
+
+        n_steps = int(math.ceil(t_end / h - 1e-9))
+        stopped = False
+        k = 0
+        t = 0.0
+        try:
+            for k in range(n_steps + 1):
+                t = k * h
+                get_real_p(pc, y_vr, ny, y)
+                set_real_c(cc, x_vr, ny, y)
+                get_real_c(cc, u_vr, nu, u)
+                set_real_p(pc, pu_vr, nu, u)
+                if record:
+                    times.append(t)
+                    rows_y.append(tuple(y))
+                    rows_u.append(tuple(u))
+                    if rec_names:
+                        get_real_p(pc, rec_vr, len(rec_names), rec_buf)
+                        rows_rec.append(tuple(rec_buf))
+                if flag_vr is not None:
+                    get_int_p(pc, flag_vr, 1, flag)
+                    if flag[0]:
+                        stopped = True
+                        break
+                if k == n_steps:
+                    break
+                dt = min(h, t_end - t)
+                step_p(pc, t, dt, fmi2True)
+                step_c(cc, t, dt, fmi2True)
+        except Exception as exc:  # fmpy raises FMICallException on an error status
+            said = "; ".join(m.strip() for m in self.plant.log + self.ctrl.log if m.strip())
+            raise FMUError(f"{w.name}: an FMU call failed at t = {t} s: " +
+                           (said or str(exc))) from None
+        final_vals = self.plant.fmu.getReal([self.plant.vr(n) for n in self._plant_out])
+        final = dict(zip(self._plant_out, final_vals))
+        outputs = {}
+        if record:
+            arr_y = np.array(rows_y).reshape(len(times), ny)
+            arr_u = np.array(rows_u).reshape(len(times), nu)
+            for i, (a, _) in enumerate(w.to_controller):
+                outputs[a] = arr_y[:, i]
+            for i, (a, _) in enumerate(w.to_plant):
+                outputs["ctrl." + a] = arr_u[:, i]
+            if rec_names:
+                arr = np.array(rows_rec)
+                for i, n in enumerate(rec_names):
+                    outputs[n] = arr[:, i]
+        return ClosedLoopResult(time=np.array(times), outputs=outputs, final=final,
+                                stopped=stopped, steps=k, flag=int(flag[0]) if flag_vr else 0)

@@ -1,0 +1,251 @@
+"""Build and export FMUs: pythonfmu slaves, FMUs with new defaults, closed-loop container FMUs, SSP.
+
+* :func:`build_slave` -- a pythonfmu FMU from a module of ``models/`` (the ``models`` package is
+  bundled in the FMU's resources, so the FMU runs on the same equations as in-process code).
+* :func:`with_defaults` -- a copy of a built FMU whose start values are replaced (XML and the
+  ``resources/defaults.json`` the slave applies on instantiation).  An exported law *is* the generic
+  controller FMU with the winner's values as defaults.
+* :func:`closed_loop_fmu` -- plant + controller composed by fmpy's container-FMU support into one
+  FMU that ``fmpy simulate`` runs directly.
+* :func:`write_ssp` -- an SSP 1.0 archive (SystemStructure.ssd + the two FMUs) of the same system,
+  for tools that read SSP; it is checked against the SSP schema by ``fmpy.ssp.ssd.read_ssd``.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import attrs
+from fmpy import read_model_description
+
+from synthesis.cosim import FMUNotFoundError, Wiring
+
+__all__ = ["build_slave", "with_defaults", "closed_loop_fmu", "write_ssp", "ROOT"]
+
+ROOT = Path(__file__).resolve().parent.parent
+MODELS = ROOT / "models"
+
+
+def _require(path: Path) -> Path:
+    path = Path(path)
+    if not path.is_file():
+        raise FMUNotFoundError(f"FMU not found: {path} -- build the FMUs first with "
+                               f"'python build_fmus.py'")
+    return path
+
+
+def build_slave(script: Path, dest_dir: Path) -> Path:
+    """Build the pythonfmu FMU of the Fmi2Slave class defined in ``script`` into ``dest_dir``."""
+    from pythonfmu import FmuBuilder
+
+    script = Path(script).resolve()
+    with tempfile.TemporaryDirectory(prefix="descent_fmus_") as tmp:
+        # Bundle a clean copy of the models package (no caches, no script duplicate issues).
+        pkg = Path(tmp) / "models"
+        shutil.copytree(MODELS, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc",
+                                                                    "README.md"))
+        return Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
+
+
+def _start_literal(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    return repr(float(value))
+
+
+def with_defaults(src_fmu: Path, dst_fmu: Path, values: dict, description: str | None = None
+                  ) -> Path:
+    """Copy ``src_fmu`` to ``dst_fmu`` with new start values for the named variables.
+
+    The values are written into ``modelDescription.xml`` (what importers show) and into
+    ``resources/defaults.json`` (what the slave applies when instantiated), so both agree.
+    """
+    src_fmu, dst_fmu = _require(src_fmu), Path(dst_fmu)
+    md = read_model_description(str(src_fmu))
+    known = {v.name: v for v in md.modelVariables}
+    unknown = [n for n in values if n not in known]
+    if unknown:
+        raise KeyError(f"{md.modelName} has no variable(s) {', '.join(unknown)}")
+    clean = {}
+    for name, value in values.items():
+        v = known[name]
+        clean[name] = int(value) if v.type == "Integer" else float(value)
+    with zipfile.ZipFile(src_fmu) as zin:
+        xml = zin.read("modelDescription.xml")
+        root = ET.fromstring(xml)
+        for sv in root.iter("ScalarVariable"):
+            name = sv.get("name")
+            if name in clean:
+                sv[0].set("start", _start_literal(clean[name]))
+        if description:
+            root.set("description", description)
+        dst_fmu.parent.mkdir(parents=True, exist_ok=True)
+        tmp = dst_fmu.with_suffix(".fmu.tmp")
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                if item.filename == "modelDescription.xml":
+                    zout.writestr(item, ET.tostring(root, encoding="UTF-8", xml_declaration=True))
+                elif item.filename == "resources/defaults.json":
+                    continue
+                else:
+                    zout.writestr(item, zin.read(item.filename))
+            zout.writestr("resources/defaults.json", json.dumps(clean, indent=1))
+    tmp.replace(dst_fmu)
+    return dst_fmu
+
+
+def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path,
+                    parameters: tuple = ()) -> Path:
+    """Compose plant and controller into one container FMU with fmpy (``fmpy.container_fmu``).
+
+    Parameters
+    ----------
+    wiring : Wiring
+        Connections, communication step (= the container's fixed step) and exposed outputs.
+    plant_fmu, controller_fmu : path-like
+        Component FMUs (their file stems must equal their model identifiers).
+    dest : path-like
+        Output ``.fmu`` file.
+    parameters : tuple of (str, str, str)
+        (container name, "plant" | "controller", component variable) parameters to expose.
+    """
+    from fmpy.container_fmu.cli import create_container_fmu
+    from fmpy.container_fmu.config import Component, Configuration, Connection
+    from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
+                                        ModelVariable, Unknown)
+
+    plant_fmu, controller_fmu, dest = _require(plant_fmu), _require(controller_fmu), Path(dest)
+    mds = {"plant": read_model_description(str(plant_fmu)),
+           "controller": read_model_description(str(controller_fmu))}
+    comps = {role: Component(name=role, filename=path, modelDescription=mds[role])
+             for role, path in (("plant", plant_fmu), ("controller", controller_fmu))}
+    cvars = {role: {v.name: v for v in md.modelVariables} for role, md in mds.items()}
+
+    def cvar(role, name):
+        try:
+            return cvars[role][name]
+        except KeyError:
+            raise KeyError(f"{mds[role].modelName} has no variable {name!r}") from None
+
+    variables = [ModelVariable(type="Real", variability="continuous", causality="independent",
+                               name="time", description="time [s]")]
+    mappings, outputs = {}, []
+    for cname, role, vname in parameters:
+        src = cvar(role, vname)
+        v = ModelVariable(type=src.type, variability="fixed", causality="parameter",
+                          initial="exact", name=cname, start=src.start,
+                          description=src.description)
+        variables.append(v)
+        mappings[v] = [(comps[role], src)]
+    for cname, role, vname in wiring.exposed:
+        src = cvar(role, vname)
+        v = ModelVariable(type=src.type,
+                          variability="discrete" if src.type == "Integer" else "continuous",
+                          causality="output", initial="calculated", name=cname,
+                          description=src.description)
+        variables.append(v)
+        mappings[v] = [(comps[role], src)]
+        outputs.append(Unknown(variable=v))
+    def conn(src_role, a, dst_role, b):
+        # fmpy 0.3.32 writes a connection's type verbatim but its container reads FMI 3 type
+        # names (Float64, Int32): hand it connectors that carry those names.
+        va, vb = cvar(src_role, a), cvar(dst_role, b)
+        kind = {"Real": "Float64", "Integer": "Int32"}.get(va.type, va.type)
+        return Connection(comps[src_role], [attrs.evolve(va, type=kind)], comps[dst_role],
+                          [attrs.evolve(vb, type=kind)])
+
+    # plant -> controller first: the controller then reads y(t) when u is copied (see cosim.py)
+    connections = [conn("plant", a, "controller", b) for a, b in wiring.to_controller]
+    connections += [conn("controller", a, "plant", b) for a, b in wiring.to_plant]
+    md = ModelDescription(
+        fmiVersion="2.0", modelName=wiring.name, instantiationToken=f"{{{uuid.uuid4()}}}",
+        description=wiring.description or f"{mds['plant'].modelName} + "
+                                          f"{mds['controller'].modelName} in closed loop",
+        generationTool="descent-fmus (fmpy container FMU)",
+        variableNamingConvention="structured",
+        defaultExperiment=DefaultExperiment(startTime="0", stopTime=repr(wiring.stop_time),
+                                            stepSize=repr(wiring.step)),
+        coSimulation=CoSimulation(modelIdentifier="container_fmu",
+                                  fixedInternalStepSize=wiring.step),
+        modelVariables=variables, outputs=outputs,
+        initialUnknowns=[Unknown(variable=u.variable) for u in outputs])
+    config = Configuration(parallelDoStep=False, modelDescription=md,
+                           components=[comps["plant"], comps["controller"]],
+                           connections=connections, variableMappings=mappings)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="descent_container_") as tmp:
+        # the container resolves components by file stem: copy them under their identifiers
+        staged = []
+        for role, path in (("plant", plant_fmu), ("controller", controller_fmu)):
+            ident = mds[role].coSimulation.modelIdentifier
+            target = Path(tmp) / "src" / f"{ident}.fmu"
+            target.parent.mkdir(exist_ok=True)
+            shutil.copy(path, target)
+            comps[role].filename = target
+            staged.append(target)
+        work = Path(tmp) / "work"
+        work.mkdir()
+        out = Path(tmp) / f"{wiring.name}.fmu"
+        create_container_fmu(config, work, out)
+        shutil.move(str(out), dest)
+    return dest
+
+
+_SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
+_SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
+
+
+def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path) -> Path:
+    """Write an SSP 1.0 archive of the closed loop (SystemStructure.ssd + resources/*.fmu)."""
+    plant_fmu, controller_fmu, dest = _require(plant_fmu), _require(controller_fmu), Path(dest)
+    ET.register_namespace("ssd", _SSD_NS)
+    ET.register_namespace("ssc", _SSC_NS)
+    q = lambda ns, tag: f"{{{ns}}}{tag}"  # noqa: E731
+    root = ET.Element(q(_SSD_NS, "SystemStructureDescription"),
+                      {"version": "1.0", "name": wiring.name,
+                       "generationTool": "descent-fmus"})
+    system = ET.SubElement(root, q(_SSD_NS, "System"), {"name": wiring.name})
+    if wiring.description:
+        system.set("description", wiring.description)
+    elements = ET.SubElement(system, q(_SSD_NS, "Elements"))
+    conns = ET.SubElement(system, q(_SSD_NS, "Connections"))
+    used = {"plant": set(a for a, _ in wiring.to_controller) | set(b for _, b in wiring.to_plant),
+            "controller": set(b for _, b in wiring.to_controller) |
+                          set(a for a, _ in wiring.to_plant)}
+    used["plant"] |= {v for _, r, v in wiring.exposed if r == "plant"}
+    for role, path in (("plant", plant_fmu), ("controller", controller_fmu)):
+        md = read_model_description(str(path))
+        comp = ET.SubElement(elements, q(_SSD_NS, "Component"),
+                             {"name": role, "type": "application/x-fmu-sharedlibrary",
+                              "source": f"resources/{path.name}"})
+        cons = ET.SubElement(comp, q(_SSD_NS, "Connectors"))
+        for v in md.modelVariables:
+            if v.name in used[role]:
+                kind = {"input": "input", "output": "output"}.get(v.causality, "parameter")
+                c = ET.SubElement(cons, q(_SSD_NS, "Connector"), {"name": v.name, "kind": kind})
+                ET.SubElement(c, q(_SSC_NS, v.type))
+    for a, b in wiring.to_controller:
+        ET.SubElement(conns, q(_SSD_NS, "Connection"), {"startElement": "plant",
+                      "startConnector": a, "endElement": "controller", "endConnector": b})
+    for a, b in wiring.to_plant:
+        ET.SubElement(conns, q(_SSD_NS, "Connection"), {"startElement": "controller",
+                      "startConnector": a, "endElement": "plant", "endConnector": b})
+    defex = ET.SubElement(root, q(_SSD_NS, "DefaultExperiment"),
+                          {"startTime": "0", "stopTime": repr(wiring.stop_time)})
+    del defex
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dest.with_suffix(".ssp.tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("SystemStructure.ssd",
+                   ET.tostring(root, encoding="UTF-8", xml_declaration=True))
+        z.write(plant_fmu, f"resources/{plant_fmu.name}")
+        z.write(controller_fmu, f"resources/{controller_fmu.name}")
+    tmp.replace(dest)
+    return dest
