@@ -243,14 +243,14 @@ class ClosedLoop:
     def _init(self, comp: _Component, values: dict, t0: float, t1: float):
         fmu = comp.fmu
         comp.call("reset", fmu.reset)
-        comp.call("setting start values", comp.set_values, values)
+        comp.set_values(values)  # ValueError/KeyError name the offending variable
         comp.call("setupExperiment", fmu.setupExperiment, None, t0, t1)
         comp.call("enterInitializationMode", fmu.enterInitializationMode)
         comp.call("exitInitializationMode", fmu.exitInitializationMode)
 
     def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
             stop_time: float | None = None, step: float | None = None,
-            record: bool = False) -> ClosedLoopResult:
+            record: bool = False, scheme: str = "gauss-seidel") -> ClosedLoopResult:
         """Fly one closed loop from t = 0; stop on the plant's stop flag or at ``stop_time``.
 
         Parameters
@@ -261,7 +261,14 @@ class ClosedLoop:
             Override the wiring's t+ and communication step [s].
         record : bool
             Record the trajectories (``self.record`` plus the connected signals).
+        scheme : {"gauss-seidel", "jacobi"}
+            "gauss-seidel" (default, as fmpy's container FMU): ``u_k = phi(y(t_k))``.
+            "jacobi": all outputs are read before any input is set, so the controller output
+            applied over ``[t_k, t_k+1]`` is ``phi(y(t_k-1))`` -- the scheme of hosts such as ecos.
         """
+        if scheme not in ("gauss-seidel", "jacobi"):
+            raise ValueError(f"unknown scheme {scheme!r}; use 'gauss-seidel' or 'jacobi'")
+        jacobi = scheme == "jacobi"
         w = self.wiring
         t_end = w.stop_time if stop_time is None else float(stop_time)
         h = w.step if step is None else float(step)
@@ -293,9 +300,14 @@ class ClosedLoop:
         try:
             for k in range(n_steps + 1):
                 t = k * h
-                get_real_p(pc, y_vr, ny, y)
-                set_real_c(cc, x_vr, ny, y)
-                get_real_c(cc, u_vr, nu, u)
+                if jacobi and k > 0:
+                    get_real_c(cc, u_vr, nu, u)
+                    get_real_p(pc, y_vr, ny, y)
+                    set_real_c(cc, x_vr, ny, y)
+                else:
+                    get_real_p(pc, y_vr, ny, y)
+                    set_real_c(cc, x_vr, ny, y)
+                    get_real_c(cc, u_vr, nu, u)
                 set_real_p(pc, pu_vr, nu, u)
                 if record:
                     times.append(t)
