@@ -1,0 +1,421 @@
+"""S4 -- orbital telescope as a rigid gyrostat with six control-moment gyros (gyrodynes).
+
+State ``x = (lam0, lam1, lam2, lam3, w1, w2, w3, beta1, ..., beta6)`` (13): the quaternion
+``lam`` [1] (body -> inertial, scalar first), the body rate ``w`` [rad/s] in the body axes and the
+gimbal angles ``beta`` [rad]; control ``u`` (6): the gimbal rates [rad/s].
+
+    I dw/dt + w x (I w + k) + dk/dt = 0,    dlam/dt = 1/2 A(w) lam,    dbeta/dt = u
+    k     = h sum_j (a_j cos beta_j + b_j sin beta_j)                  [N m s]
+    dk/dt = h sum_j (-a_j sin beta_j + b_j cos beta_j) u_j = C(beta) u [N m]
+
+Gimbal axes ``g_j`` along the six non-parallel face normals of a regular dodecahedron,
+``a_j = normalize(g_j x e_y)`` (rotor axis at beta_j = 0, [choice], models/README.md) and
+``b_j = g_j x a_j``.  First integrals: ``|lam| = 1`` and the inertial angular momentum
+``K = R(lam) (I w + k)``.
+
+This module holds the only definition of these equations (:func:`make_rigid_rhs`); the
+:class:`Telescope` FMU, the flexible model (``models/flexible_telescope.py``) and the direct method
+(``synthesis/direct_method.py``) all call it.  :func:`rigid_jacobian` is its analytic
+linearisation (checked against finite differences in tests/test_telescope.py).
+
+References
+----------
+Seed 003: S.A. Voronov, PhD thesis (2009), ch. 2, Example 1, eqs. (8)-(9); SPEC S4.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
+from models.rk4_input import propagate_linear_input
+from pythonfmu import Fmi2Causality
+
+__all__ = ["PHI", "GIMBAL_AXES", "TelescopeParams", "gimbal_vectors", "make_rigid_rhs",
+           "rigid_jacobian", "quat_to_matrix", "body_momentum", "inertial_momentum",
+           "gyro_momentum", "singularity_measure", "envelope_radius", "required_gyro_momentum",
+           "INITIAL_STATE", "TARGET_LAM", "TARGET_W", "T_DEFAULT", "AttitudeIntegrator",
+           "Telescope", "DT_INTEGRATION", "deg"]
+
+PHI = (1.0 + math.sqrt(5.0)) / 2.0
+#: Gimbal axes (unnormalised): six non-parallel face normals of a regular dodecahedron (SPEC S4).
+GIMBAL_AXES = ((0.0, 1.0, PHI), (0.0, 1.0, -PHI), (1.0, PHI, 0.0), (-1.0, PHI, 0.0),
+               (PHI, 0.0, 1.0), (PHI, 0.0, -1.0))
+#: Default RK4 sub-step inside the FMU [s]; the direct method uses the same sub-steps.
+DT_INTEGRATION = 0.1
+#: Reorientation time of SPEC S4 [s].
+T_DEFAULT = 40.0
+
+
+def deg(x: float) -> float:
+    """Degrees -> radians."""
+    return math.radians(x)
+
+
+_C15, _S15 = math.cos(deg(15.0)), math.sin(deg(15.0))
+_C10, _S10 = math.cos(deg(10.0)), math.sin(deg(10.0))
+#: SPEC S4 initial state (lam, w [rad/s], beta [rad]).
+INITIAL_STATE = (_C15, 0.0, _S15, 0.0, 0.0, deg(0.4), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -math.pi)
+#: SPEC S4 target quaternion and body rate [rad/s] at t = T.
+TARGET_LAM = (_C10, _S10 / math.sqrt(2.0), 0.0, _S10 / math.sqrt(2.0))
+TARGET_W = (deg(-0.3), 0.0, deg(-0.3))
+
+
+def _cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+def _unit(a):
+    n = math.sqrt(a[0] ** 2 + a[1] ** 2 + a[2] ** 2)
+    return (a[0] / n, a[1] / n, a[2] / n)
+
+
+def gimbal_vectors(rotor_ref: str = "y"):
+    """Unit gimbal axes ``g_j`` and the rotor axes ``a_j`` (beta=0), ``b_j = g_j x a_j``.
+
+    ``rotor_ref`` picks ``a_j = normalize(g_j x e_ref)``: ``"y"`` (default, SPEC's suggestion) or
+    ``"z"``.
+    """
+    e = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[rotor_ref]
+    g = [_unit(v) for v in GIMBAL_AXES]
+    a = [_unit(_cross(gj, e)) for gj in g]
+    b = [_cross(gj, aj) for gj, aj in zip(g, a)]
+    return g, a, b
+
+
+@dataclass(frozen=True)
+class TelescopeParams:
+    """Parameters of the rigid S4 gyrostat (SI units), defaults = SPEC S4.
+
+    Attributes
+    ----------
+    inertia : tuple of 9 float
+        Inertia tensor I, row-major [kg m^2] (seed 003, Example 1).
+    h : float
+        Rotor angular momentum of each gyrodyne [N m s].
+    rotor_ref : str
+        Reference axis of the rotor directions a_j = normalize(g_j x e_ref) ([choice]).
+    """
+
+    inertia: tuple = (25000.0, -100.0, -100.0, -100.0, 10000.0, 100.0, -100.0, 100.0, 18000.0)
+    h: float = 250.0
+    rotor_ref: str = "y"
+
+    def validate(self) -> "TelescopeParams":
+        if len(self.inertia) != 9:
+            raise ParameterError("parameter inertia needs 9 entries (row-major 3x3) [kg m2]")
+        for i, v in enumerate(self.inertia):
+            require_finite(f"inertia[{i + 1}]", v)
+        I = np.array(self.inertia).reshape(3, 3)
+        if not np.allclose(I, I.T):
+            raise ParameterError("inertia tensor must be symmetric")
+        ev = np.linalg.eigvalsh(I)
+        if ev[0] <= 0.0:
+            raise ParameterError(f"inertia tensor must be positive definite, eigenvalues {ev}")
+        e = sorted(ev)
+        if e[0] + e[1] < e[2] * (1 - 1e-12):
+            raise ParameterError(f"inertia tensor violates the triangle inequality: {ev}")
+        require_positive("h", self.h)
+        if self.rotor_ref not in ("x", "y", "z"):
+            raise ParameterError(f"rotor_ref must be 'x', 'y' or 'z', got {self.rotor_ref!r}")
+        return self
+
+    @property
+    def I(self) -> np.ndarray:  # noqa: E743
+        return np.array(self.inertia, dtype=float).reshape(3, 3)
+
+    def gyro_matrices(self):
+        """(h a_j, h b_j) as (6, 3) arrays [N m s]."""
+        _, a, b = gimbal_vectors(self.rotor_ref)
+        return self.h * np.array(a), self.h * np.array(b)
+
+
+def make_rigid_rhs(p: TelescopeParams):
+    """Return ``f(x, u)``: the S4 rigid gyrostat right-hand side on tuples (13 states, 6 controls).
+
+    The returned closure works on plain floats (fast for a 13-element state, DESIGN.md).
+    """
+    p.validate()
+    Ii = np.linalg.inv(p.I)
+    i11, i12, i13, i21, i22, i23, i31, i32, i33 = p.inertia
+    j11, j12, j13, j21, j22, j23, j31, j32, j33 = (float(v) for v in Ii.ravel())
+    ha, hb = p.gyro_matrices()
+    HA = [tuple(float(v) for v in r) for r in ha]
+    HB = [tuple(float(v) for v in r) for r in hb]
+    gy = list(zip(HA, HB))
+    cos, sin = math.cos, math.sin
+
+    def rhs(x, u):
+        l0, l1, l2, l3, w1, w2, w3 = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
+        k1 = k2 = k3 = d1 = d2 = d3 = 0.0
+        j = 0
+        for (a, b) in gy:
+            bj = x[7 + j]
+            c, s = cos(bj), sin(bj)
+            k1 += a[0] * c + b[0] * s
+            k2 += a[1] * c + b[1] * s
+            k3 += a[2] * c + b[2] * s
+            uj = u[j]
+            d1 += (b[0] * c - a[0] * s) * uj
+            d2 += (b[1] * c - a[1] * s) * uj
+            d3 += (b[2] * c - a[2] * s) * uj
+            j += 1
+        L1 = i11 * w1 + i12 * w2 + i13 * w3 + k1
+        L2 = i21 * w1 + i22 * w2 + i23 * w3 + k2
+        L3 = i31 * w1 + i32 * w2 + i33 * w3 + k3
+        r1 = -(w2 * L3 - w3 * L2) - d1
+        r2 = -(w3 * L1 - w1 * L3) - d2
+        r3 = -(w1 * L2 - w2 * L1) - d3
+        return (0.5 * (-w1 * l1 - w2 * l2 - w3 * l3),
+                0.5 * (w1 * l0 + w3 * l2 - w2 * l3),
+                0.5 * (w2 * l0 - w3 * l1 + w1 * l3),
+                0.5 * (w3 * l0 + w2 * l1 - w1 * l2),
+                j11 * r1 + j12 * r2 + j13 * r3,
+                j21 * r1 + j22 * r2 + j23 * r3,
+                j31 * r1 + j32 * r2 + j33 * r3,
+                u[0], u[1], u[2], u[3], u[4], u[5])
+    return rhs
+
+
+def _skew(v):
+    """Batch of cross-product matrices [v]x, v of shape (n, 3) -> (n, 3, 3)."""
+    n = v.shape[0]
+    S = np.zeros((n, 3, 3))
+    S[:, 0, 1], S[:, 0, 2] = -v[:, 2], v[:, 1]
+    S[:, 1, 0], S[:, 1, 2] = v[:, 2], -v[:, 0]
+    S[:, 2, 0], S[:, 2, 1] = -v[:, 1], v[:, 0]
+    return S
+
+
+def rigid_jacobian(p: TelescopeParams):
+    """Return ``jac(X, U) -> (A, B)``: df/dx (n, 13, 13) and df/du (n, 13, 6) of the rigid model.
+
+    ``X`` (n, 13) and ``U`` (n, 6) are batches of states and controls (vectorised over time).
+    """
+    p.validate()
+    I = p.I
+    Ii = np.linalg.inv(I)
+    ha, hb = p.gyro_matrices()
+
+    def jac(X, U):
+        X = np.atleast_2d(np.asarray(X, float))
+        U = np.atleast_2d(np.asarray(U, float))
+        n = X.shape[0]
+        lam, w, beta = X[:, :4], X[:, 4:7], X[:, 7:13]
+        c, s = np.cos(beta)[..., None], np.sin(beta)[..., None]
+        Cj = -s * ha + c * hb          # (n, 6, 3) dk/dbeta_j
+        kj = c * ha + s * hb           # (n, 6, 3) h (a_j cos + b_j sin)
+        k = kj.sum(axis=1)
+        L = w @ I.T + k
+        A = np.zeros((n, 13, 13))
+        w1, w2, w3 = w[:, 0], w[:, 1], w[:, 2]
+        Aw = np.zeros((n, 4, 4))
+        Aw[:, 0, 1], Aw[:, 0, 2], Aw[:, 0, 3] = -w1, -w2, -w3
+        Aw[:, 1, 0], Aw[:, 1, 2], Aw[:, 1, 3] = w1, w3, -w2
+        Aw[:, 2, 0], Aw[:, 2, 1], Aw[:, 2, 3] = w2, -w3, w1
+        Aw[:, 3, 0], Aw[:, 3, 1], Aw[:, 3, 2] = w3, w2, -w1
+        A[:, :4, :4] = 0.5 * Aw
+        l0, l1, l2, l3 = lam[:, 0], lam[:, 1], lam[:, 2], lam[:, 3]
+        Xi = np.stack([np.stack([-l1, -l2, -l3], -1), np.stack([l0, -l3, l2], -1),
+                       np.stack([l3, l0, -l1], -1), np.stack([-l2, l1, l0], -1)], 1)
+        A[:, :4, 4:7] = 0.5 * Xi
+        A[:, 4:7, 4:7] = np.einsum("ab,nbc->nac", Ii, _skew(L) - _skew(w) @ I)
+        dbeta = -np.cross(w[:, None, :], Cj) + kj * U[..., None]      # (n, 6, 3)
+        A[:, 4:7, 7:13] = np.einsum("ab,njb->naj", Ii, dbeta)
+        B = np.zeros((n, 13, 6))
+        B[:, 4:7, :] = np.einsum("ab,njb->naj", Ii, -Cj)
+        B[:, 7:13, :] = np.eye(6)
+        return A, B
+    return jac
+
+
+def quat_to_matrix(lam) -> np.ndarray:
+    """Rotation matrix R (body -> inertial) of the quaternion ``lam`` (scalar first)."""
+    q0, q1, q2, q3 = (float(v) for v in lam[:4])
+    return np.array([
+        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
+        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
+        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
+
+
+def gyro_momentum(beta, p: TelescopeParams) -> np.ndarray:
+    """k(beta) [N m s] in body axes."""
+    ha, hb = p.gyro_matrices()
+    beta = np.asarray(beta, float)
+    return np.cos(beta) @ ha + np.sin(beta) @ hb
+
+
+def body_momentum(x, p: TelescopeParams) -> np.ndarray:
+    """Angular momentum of the rigid gyrostat in body axes, I w + k [N m s]."""
+    x = np.asarray(x, float)
+    return p.I @ x[4:7] + gyro_momentum(x[7:13], p)
+
+
+def inertial_momentum(x, p: TelescopeParams) -> np.ndarray:
+    """First integral K = R(lam) (I w + k) [N m s] (inertial axes)."""
+    return quat_to_matrix(x) @ body_momentum(x, p)
+
+
+def singularity_measure(beta, p: TelescopeParams) -> float:
+    """det(C C^T) / h^6 [1] of the 3x6 gyro Jacobian C = dk/dbeta (0 = singular state).
+
+    Normalised by h^6: the maximum over beta is 8 (C C^T = 2 h^2 I, trace = 6 h^2).
+    """
+    ha, hb = p.gyro_matrices()
+    beta = np.asarray(beta, float)[:, None]
+    C = (-np.sin(beta) * ha + np.cos(beta) * hb).T / p.h
+    return float(np.linalg.det(C @ C.T))
+
+
+def envelope_radius(direction, p: TelescopeParams) -> float:
+    """Largest gyro momentum |k| [N m s] reachable along ``direction`` (the CMG envelope).
+
+    Each gyro's rotor sweeps the plane normal to its gimbal axis, so its largest contribution
+    along a unit vector e is h sqrt(1 - (e.g_j)^2).
+    """
+    e = np.asarray(direction, float)
+    e = e / np.linalg.norm(e)
+    g, _, _ = gimbal_vectors(p.rotor_ref)
+    return float(p.h * sum(math.sqrt(max(0.0, 1.0 - float(np.dot(e, gj)) ** 2)) for gj in g))
+
+
+def required_gyro_momentum(x0, lam_f, w_f, p: TelescopeParams) -> np.ndarray:
+    """Gyro momentum k(T) [N m s] the end state needs: R(lam_f)^T K(x0) - I w_f."""
+    K = inertial_momentum(x0, p)
+    lam_f = np.asarray(lam_f, float)
+    lam_f = lam_f / np.linalg.norm(lam_f)
+    return quat_to_matrix(lam_f).T @ K - p.I @ np.asarray(w_f, float)
+
+
+class AttitudeIntegrator:
+    """Advance ``x`` under a piecewise-linear control with RK4 sub-steps of at most ``dt`` [s].
+
+    The one integrator of the telescope plants: the FMUs own one, in-process code uses it too.
+    """
+
+    def __init__(self, rhs, x0, dt: float = DT_INTEGRATION):
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ParameterError(f"integration step dt must be > 0 [s], got {dt!r}")
+        self.rhs, self.dt = rhs, dt
+        self.x0 = tuple(float(v) for v in x0)
+        self.reset()
+
+    def reset(self):
+        self.t = 0.0
+        self.x = self.x0
+        self.diverged = False
+
+    def advance(self, t_end: float, u, du) -> None:
+        """Integrate to ``t_end`` with ``u(t) = u + du (t - self.t)`` (first-order hold)."""
+        span = t_end - self.t
+        if span <= 0.0 or self.diverged:
+            return
+        n = max(1, math.ceil(span / self.dt - 1e-9))
+        x = propagate_linear_input(self.rhs, self.x, span, u, du, n)
+        if not all(math.isfinite(v) for v in x):
+            self.diverged = True
+            return
+        self.x, self.t = x, t_end
+
+
+class Telescope(SlaveBase):
+    """FMU of the rigid S4 telescope: inputs gimbal rates and their slopes; outputs the state,
+    inertial angular momentum and the CMG singularity measure.
+
+    The control over a communication step ``[t, t + H]`` is ``u + du (s - t)``: with ``du`` = 0 a
+    zero-order hold, with the ProgramController's slopes an exact replay of a piecewise-linear
+    program (first-order hold).
+    """
+
+    description = ("S4 orbital telescope, rigid gyrostat with six gyrodynes (dodecahedron); "
+                   "seed 003, Voronov 2009")
+    N_EXTRA = 0
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        d = TelescopeParams()
+        names = ("I11", "I12", "I13", "I21", "I22", "I23", "I31", "I32", "I33")
+        self._inertia = list(d.inertia)
+        for k, n in enumerate(names):
+            self.parameter(n, d.inertia[k], f"inertia tensor entry {n} [kg m2]")
+        self.parameter("h", d.h, "rotor angular momentum of each gyrodyne [N m s]")
+        self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
+        self.lam_init = list(INITIAL_STATE[:4])
+        self.w_init = list(INITIAL_STATE[4:7])
+        self.beta_init = list(INITIAL_STATE[7:13])
+        self.real_array("lam_init", self.lam_init, Fmi2Causality.parameter,
+                        "initial quaternion (scalar first), body -> inertial [1]")
+        self.real_array("w_init", self.w_init, Fmi2Causality.parameter,
+                        "initial body rate [rad/s]")
+        self.real_array("beta_init", self.beta_init, Fmi2Causality.parameter,
+                        "initial gimbal angles [rad]")
+        self.u = [0.0] * 6
+        self.du = [0.0] * 6
+        self.real_array("u", self.u, Fmi2Causality.input, "gimbal rate at the step start [rad/s]")
+        self.real_array("du", self.du, Fmi2Causality.input,
+                        "gimbal rate slope over the step (0 = zero-order hold) [rad/s2]")
+        self._register_extra_parameters()
+        x = lambda: self._ig.x  # noqa: E731
+        for k in range(4):
+            self.output(f"lam{k}", f"quaternion component lambda{k} [1]",
+                        getter=lambda k=k: x()[k])
+        for k in range(3):
+            self.output(f"w{k + 1}", f"body rate omega{k + 1} [rad/s]",
+                        getter=lambda k=k: x()[4 + k])
+        for k in range(6):
+            self.output(f"beta{k + 1}", f"gimbal angle beta{k + 1} [rad]",
+                        getter=lambda k=k: x()[7 + k])
+        for k in range(3):
+            self.output(f"K{k + 1}", f"inertial angular momentum K{k + 1} (first integral) "
+                        "[N m s]", getter=lambda k=k: float(self._momentum()[k]))
+        self.output("sing", "CMG singularity measure det(C C^T)/h^6, 0 = singular [1]",
+                    getter=lambda: singularity_measure(x()[7:13], self._params))
+        self.output("lam_norm", "quaternion norm |lambda| (first integral, = 1) [1]",
+                    getter=lambda: math.sqrt(sum(v * v for v in x()[:4])))
+        self._register_extra_outputs()
+        self.int_output("diverged", "1 if the integration produced a non-finite state [1]",
+                        getter=lambda: int(self._ig.diverged))
+        self.apply_resource_defaults()
+        self.prepare()
+
+    # hooks for the flexible variant
+    def _register_extra_parameters(self):
+        pass
+
+    def _register_extra_outputs(self):
+        pass
+
+    def _momentum(self):
+        return inertial_momentum(self._ig.x, self._params)
+
+    def _telescope_params(self) -> TelescopeParams:
+        return TelescopeParams(inertia=(self.I11, self.I12, self.I13, self.I21, self.I22,
+                                        self.I23, self.I31, self.I32, self.I33), h=self.h)
+
+    def _initial_state(self):
+        return tuple(self.lam_init) + tuple(self.w_init) + tuple(self.beta_init)
+
+    def _make_rhs(self):
+        return make_rigid_rhs(self._params)
+
+    def check_parameters(self) -> None:
+        self._telescope_params().validate()
+        require_positive("dt", self.dt)
+        for n, v in zip(("lam_init",) * 4 + ("w_init",) * 3 + ("beta_init",) * 6,
+                        self._initial_state()):
+            require_finite(n, v)
+        nrm = math.sqrt(sum(v * v for v in self.lam_init))
+        if abs(nrm - 1.0) > 1e-6:
+            raise ParameterError(f"lam_init must be a unit quaternion, |lam_init| = {nrm}")
+
+    def prepare(self) -> None:
+        self._params = self._telescope_params()
+        self._ig = AttitudeIntegrator(self._make_rhs(), self._initial_state(), self.dt)
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        u = tuple(v if math.isfinite(v) else 0.0 for v in self.u)
+        du = tuple(v if math.isfinite(v) else 0.0 for v in self.du)
+        self._ig.advance(current_time + step_size, u, du)
+        return True
