@@ -19,6 +19,7 @@ from __future__ import annotations
 import json
 import math
 import os
+from collections import OrderedDict
 
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Initial
@@ -46,6 +47,52 @@ def require_positive(name: str, value: float) -> float:
     return value
 
 
+def _template(var) -> dict:
+    return {k: v for k, v in var.__dict__.items() if k not in ("getter", "setter")}
+
+
+def _clone(cls, template, getter, setter):
+    var = cls.__new__(cls)
+    d = dict(template)
+    d["getter"], d["setter"] = getter, setter
+    var.__dict__ = d
+    return var
+
+
+class _LazyVars(OrderedDict):
+    """pythonfmu's variable table (value reference -> variable) with lazily built ranges."""
+
+    def __init__(self):
+        super().__init__()
+        self.size = 0            # number of value references handed out
+        self.ranges = []         # (first vr, count, make(k) -> variable)
+
+    def add(self, vr, var):
+        self[vr] = var
+        self.size += 1
+
+    def add_range(self, vr0, count, make):
+        self.ranges.append((vr0, count, make))
+        self.size += count
+
+    def __missing__(self, vr):
+        for vr0, count, make in self.ranges:
+            if vr0 <= vr < vr0 + count:
+                var = self[vr] = make(vr - vr0)
+                return var
+        raise KeyError(vr)
+
+    def materialise(self):
+        """Build every lazy variable (needed before iterating over all variables)."""
+        for vr0, count, _ in self.ranges:
+            for vr in range(vr0, vr0 + count):
+                if vr not in self:
+                    self.__missing__(vr)
+        self.ranges = []
+        for vr in sorted(self):   # restore value-reference order for iteration
+            self.move_to_end(vr)
+
+
 class SlaveBase(Fmi2Slave):
     """Registration helpers; subclasses implement ``do_step`` and optionally ``check_parameters``.
 
@@ -58,46 +105,90 @@ class SlaveBase(Fmi2Slave):
     license = "MIT"
 
     # -- registration -----------------------------------------------------------------------
+    # pythonfmu re-creates the slave object on every fmi2Reset, so registration cost is paid
+    # per closed-loop run.  The first instance of a class in a process builds every variable
+    # with pythonfmu's constructors (that instance also writes modelDescription.xml at build
+    # time); later instances clone the recorded attribute dictionaries and bind new closures,
+    # and large blocks (var_block) are materialised only when a value reference is touched.
+    _prototypes: dict = {}
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.vars = _LazyVars()
+
+    def _var(self, cls, name, getter, setter=None, **kw) -> None:
+        proto = SlaveBase._prototypes.get((type(self), name))
+        vr = self.vars.size
+        if proto is not None and proto[1] == vr:
+            self.vars.add(vr, _clone(cls, proto[0], getter, setter))
+            return
+        self.vars.materialise()
+        var = cls(name, getter=getter, setter=setter, **kw)
+        self.register_variable(var)
+        self.vars.size += 1
+        SlaveBase._prototypes[(type(self), name)] = (_template(var), vr)
+
+    def var_block(self, cls, names, getter_of, setter_of, **kw) -> None:
+        """Register ``names[k]`` with ``getter_of(k)`` / ``setter_of(k)`` (closures made lazily).
+
+        For blocks of hundreds of parameters (the network operator's matrix) of which a run
+        touches only a few.
+        """
+        key = (type(self), "block", names[0], len(names))
+        proto = SlaveBase._prototypes.get(key)
+        vr0 = self.vars.size
+        if proto is not None and proto[1] == vr0:
+            templates = proto[0]
+            self.vars.add_range(vr0, len(names), lambda k: _clone(cls, templates[k], getter_of(k),
+                                                                   setter_of(k)))
+            return
+        for k, name in enumerate(names):
+            self._var(cls, name, getter_of(k), setter_of(k), **kw)
+        SlaveBase._prototypes[key] = ([SlaveBase._prototypes[(type(self), n)][0] for n in names],
+                                      vr0)
+
     def _register(self, var) -> None:
         self.register_variable(var)
 
     def parameter(self, name: str, start: float, description: str) -> None:
         """A Real parameter stored in attribute ``name`` (start value = current default)."""
         setattr(self, name, float(start))
-        self._register(Real(name, causality=Fmi2Causality.parameter,
-                            variability=Fmi2Variability.fixed, description=description,
-                            getter=lambda n=name: getattr(self, n),
-                            setter=lambda v, n=name: setattr(self, n, v)))
+        self._var(Real, name, lambda n=name: getattr(self, n),
+                  lambda v, n=name: setattr(self, n, v), causality=Fmi2Causality.parameter,
+                  variability=Fmi2Variability.fixed, description=description)
 
-    def int_parameter(self, name: str, start: int, description: str) -> None:
-        setattr(self, name, int(start))
-        self._register(Integer(name, causality=Fmi2Causality.parameter,
-                               variability=Fmi2Variability.fixed, description=description,
-                               getter=lambda n=name: getattr(self, n),
-                               setter=lambda v, n=name: setattr(self, n, int(v))))
+    def int_parameter(self, name: str, start: int, description: str, getter=None,
+                      setter=None) -> None:
+        """An Integer parameter (attribute ``name`` unless a getter/setter pair is given)."""
+        if getter is None:
+            setattr(self, name, int(start))
+            getter = lambda n=name: getattr(self, n)  # noqa: E731
+            setter = lambda v, n=name: setattr(self, n, int(v))  # noqa: E731
+        self._var(Integer, name, getter, setter, causality=Fmi2Causality.parameter,
+                  variability=Fmi2Variability.fixed, description=description)
 
     def input(self, name: str, start: float, description: str, setter=None) -> None:
         setattr(self, name, float(start))
-        self._register(Real(name, causality=Fmi2Causality.input,
-                            variability=Fmi2Variability.continuous, description=description,
-                            getter=lambda n=name: getattr(self, n),
-                            setter=setter or (lambda v, n=name: setattr(self, n, v))))
+        self._var(Real, name, lambda n=name: getattr(self, n),
+                  setter or (lambda v, n=name: setattr(self, n, v)),
+                  causality=Fmi2Causality.input, variability=Fmi2Variability.continuous,
+                  description=description)
 
     def output(self, name: str, description: str, getter=None, start: float = 0.0) -> None:
         if getter is None:
             setattr(self, name, float(start))
             getter = lambda n=name: getattr(self, n)  # noqa: E731
-        self._register(Real(name, causality=Fmi2Causality.output,
-                            variability=Fmi2Variability.continuous, initial=Fmi2Initial.exact,
-                            description=description, getter=getter))
+        self._var(Real, name, getter, causality=Fmi2Causality.output,
+                  variability=Fmi2Variability.continuous, initial=Fmi2Initial.exact,
+                  description=description)
 
     def int_output(self, name: str, description: str, getter=None, start: int = 0) -> None:
         if getter is None:
             setattr(self, name, int(start))
             getter = lambda n=name: getattr(self, n)  # noqa: E731
-        self._register(Integer(name, causality=Fmi2Causality.output,
-                               variability=Fmi2Variability.discrete, initial=Fmi2Initial.exact,
-                               description=description, getter=getter))
+        self._var(Integer, name, getter, causality=Fmi2Causality.output,
+                  variability=Fmi2Variability.discrete, initial=Fmi2Initial.exact,
+                  description=description)
 
     def real_array(self, name: str, values: list, causality: Fmi2Causality, description: str,
                    setter_hook=None) -> None:
@@ -115,8 +206,8 @@ class SlaveBase(Fmi2Slave):
                 kw["variability"] = Fmi2Variability.fixed
             elif causality == Fmi2Causality.input:
                 kw["variability"] = Fmi2Variability.continuous
-            self._register(Real(f"{name}[{k + 1}]", causality=causality, description=description,
-                                getter=lambda k=k: values[k], setter=setter, **kw))
+            self._var(Real, f"{name}[{k + 1}]", lambda k=k: values[k], setter,
+                      causality=causality, description=description, **kw)
 
     # -- defaults carried by an exported FMU ------------------------------------------------
     DEFAULTS_FILE = "defaults.json"
@@ -134,6 +225,7 @@ class SlaveBase(Fmi2Slave):
             return
         with open(path, encoding="utf-8") as fh:
             values = json.load(fh)
+        self.vars.materialise()
         by_name = {v.name: v for v in self.vars.values()}
         for name, value in values.items():
             by_name[name].setter(value)

@@ -35,7 +35,7 @@ U_BOUNDS = (-0.2, 0.2)
 #: Final time limit t+ [s] of SPEC S1.
 T_PLUS = 300.0
 #: Default RK4 sub-step inside the FMU [s] (accuracy: see models/README.md).
-DT_INTEGRATION = 0.25
+DT_INTEGRATION = 0.5
 
 
 @dataclass(frozen=True)
@@ -252,29 +252,22 @@ class Reentry(SlaveBase):
             self.parameter(name, getattr(d, name), desc)
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.input("u", 0.0, "relative change of drag, clipped to [-0.2, 0.2] [1]")
-        fi = lambda: self._fi  # noqa: E731
+        # Outputs are plain attributes refreshed once per step by _publish (cheap getters: the
+        # closed loop reads them every communication step).
         for k in range(4):
             unit = "m" if k % 2 == 0 else "m/s"
-            self.output(f"x{k + 1}", f"state x{k + 1} [{unit}]", getter=lambda k=k: fi().x[k])
-        self.output("h", "altitude r - Rz [m]", getter=lambda: altitude(fi().x, fi().p.Rz))
-        self.output("L", "down-range Rz atan(x1/x3) [m]",
-                    getter=lambda: downrange(fi().x, fi().p.Rz))
-        self.output("load", "load factor r2 |a| / (Rz2 g0) (J1 integrand) [1]",
-                    getter=lambda: fi().load)
-        self.output("aero_load", "drag acceleration / g0 [1]", getter=lambda: fi().aero_load)
-        self.output("load_max", "running maximum of load over all sub-steps (J1) [1]",
-                    getter=lambda: fi().load_max)
-        self.output("aero_load_max", "running maximum of aero_load [1]",
-                    getter=lambda: fi().aero_load_max)
-        self.output("y1", "relative altitude deviation from the line (0,h0)-(Lf,hf) [1]",
-                    getter=lambda: deviations(fi().x, fi().p)[0])
-        self.output("y2", "path-angle deviation from the line to the target [rad]",
-                    getter=lambda: deviations(fi().x, fi().p)[1])
-        self.output("t_land", "time of the first h <= hf, -1 before [s]",
-                    getter=lambda: fi().t_land if fi().landed else -1.0)
+            self.output(f"x{k + 1}", f"state x{k + 1} [{unit}]")
+        self.output("h", "altitude r - Rz [m]")
+        self.output("L", "down-range Rz atan(x1/x3) [m]")
+        self.output("load", "load factor r2 |a| / (Rz2 g0) (J1 integrand) [1]")
+        self.output("aero_load", "drag acceleration / g0 [1]")
+        self.output("load_max", "running maximum of load over all sub-steps (J1) [1]")
+        self.output("aero_load_max", "running maximum of aero_load [1]")
+        self.output("y1", "relative altitude deviation from the line (0,h0)-(Lf,hf) [1]")
+        self.output("y2", "path-angle deviation from the line to the target [rad]")
+        self.output("t_land", "time of the first h <= hf, -1 before [s]", start=-1.0)
         self.int_output("landed", "1 from the first time h <= hf on (2 if the integration "
-                        "diverged) [1]",
-                        getter=lambda: 2 if fi().diverged else int(fi().landed))
+                        "diverged) [1]")
         self.apply_resource_defaults()
         self.prepare()
 
@@ -287,11 +280,25 @@ class Reentry(SlaveBase):
 
     def prepare(self) -> None:
         self._fi = FlightIntegrator(self._params(), self.dt)
+        self._publish()
+
+    def _publish(self) -> None:
+        fi = self._fi
+        x, rz = fi.x, fi.p.Rz
+        self.x1, self.x2, self.x3, self.x4 = x
+        self.h = altitude(x, rz)
+        self.L = downrange(x, rz)
+        self.load, self.aero_load = fi.load, fi.aero_load
+        self.load_max, self.aero_load_max = fi.load_max, fi.aero_load_max
+        self.y1, self.y2 = deviations(x, fi.p)
+        self.t_land = fi.t_land if fi.landed else -1.0
+        self.landed = 2 if fi.diverged else int(fi.landed)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         u = self.u
         if not math.isfinite(u):
             u = 0.0
         self._fi.advance(current_time + step_size, min(max(u, U_BOUNDS[0]), U_BOUNDS[1]))
+        self._publish()
         return True
 

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import math
 
+from pythonfmu import Fmi2Causality, Fmi2Variability, Integer
+
 from models.fmu_support import ParameterError, SlaveBase
 
 __all__ = ["BIG", "UNARY", "BINARY", "UNIT", "UNARY_NAMES", "BINARY_NAMES", "compile_law",
@@ -237,6 +239,10 @@ BASIC_LAW_PSI = [
 PAPER_Q = (2.259375, 1.953125)
 
 
+_PSI_IJ = [(i, j) for i in range(L_MAX) for j in range(i, L_MAX)]
+_PSI_NAMES = [f"psi[{i + 1},{j + 1}]" for i, j in _PSI_IJ]
+
+
 class NetworkOperatorController(SlaveBase):
     """Generic network-operator controller FMU: ``u[k] = clip(z[out[k]], u_min[k], u_max[k])``.
 
@@ -255,7 +261,6 @@ class NetworkOperatorController(SlaveBase):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        from pythonfmu import Fmi2Causality
         self.psi = [[0] * L_MAX for _ in range(L_MAX)]
         for i, row in enumerate(BASIC_LAW_PSI):
             self.psi[i][:len(row)] = row
@@ -279,23 +284,19 @@ class NetworkOperatorController(SlaveBase):
         self.real_array("u_min", self.u_lo, Fmi2Causality.parameter, "lower output bound [1]")
         self.real_array("u_max", self.u_hi, Fmi2Causality.parameter, "upper output bound [1]")
         for k in range(NU_MAX):
-            self._register_int(f"out[{k + 1}]", lambda k=k: self.out[k],
-                               lambda v, k=k: self.out.__setitem__(k, int(v)),
-                               "node whose value is output k (0 = unused) [1]")
-        for i in range(L_MAX):
-            for j in range(i, L_MAX):
-                self._register_int(f"psi[{i + 1},{j + 1}]", lambda i=i, j=j: self.psi[i][j],
-                                   lambda v, i=i, j=j: self.psi[i].__setitem__(j, int(v)),
-                                   "binary operation (i = j) or unary operation on arc i->j [1]")
+            self.int_parameter(f"out[{k + 1}]", 0, "node whose value is output k (0 = unused) [1]",
+                               lambda k=k: self.out[k],
+                               lambda v, k=k: self.out.__setitem__(k, int(v)))
+        psi = self.psi
+        self.var_block(Integer, _PSI_NAMES,
+                       lambda k: lambda i=_PSI_IJ[k][0], j=_PSI_IJ[k][1]: psi[i][j],
+                       lambda k: lambda v, i=_PSI_IJ[k][0], j=_PSI_IJ[k][1]:
+                       psi[i].__setitem__(j, int(v)),
+                       causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed,
+                       description="binary operation (i = j) or unary operation on arc i->j [1]")
         self.apply_resource_defaults()
         self.check_parameters()
         self.prepare()
-
-    def _register_int(self, name, getter, setter, description):
-        from pythonfmu import Fmi2Causality, Fmi2Variability, Integer
-        self._register(Integer(name, causality=Fmi2Causality.parameter,
-                               variability=Fmi2Variability.fixed, description=description,
-                               getter=getter, setter=setter))
 
     def _touch(self):
         self._dirty = True

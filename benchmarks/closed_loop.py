@@ -1,0 +1,64 @@
+"""Benchmark: one closed-loop reentry flight through the FMUs vs the same code in-process.
+
+Prints the median wall time of a flight (FMU instances reused: reset + new start values per run)
+and the ratio to the in-process run of the same functions (models.reentry.FlightIntegrator and
+the network-operator evaluation, no FMI).  Goal (issue 2): <= 20 ms per flight, ratio <= 2.
+
+    python benchmarks/closed_loop.py [--repeat N] [--fmus DIR]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from models.reentry import ReentryParams, deviations, simulate  # noqa: E402
+from synthesis.network_operator import NetworkOperator  # noqa: E402
+from synthesis.reentry_flight import fly, open_loop  # noqa: E402
+from synthesis.scenarios import reentry as spec  # noqa: E402
+
+
+def timed(fn, repeat):
+    ts = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        ts.append(time.perf_counter() - t0)
+    return statistics.median(ts)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=30)
+    ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    p = ReentryParams()
+    rows = {}
+    with open_loop(args.fmus, record=()) as loop:
+        for name, law in (("basic law", NetworkOperator.basic_law()),
+                          ("paper 16-node law", NetworkOperator.paper_law())):
+            fly(law, loop=loop)  # warm-up
+            t_fmu = timed(lambda: fly(law, loop=loop), args.repeat)
+            t_py = timed(lambda: simulate(p, lambda t, x: law(deviations(x, p))[0],
+                                          step=spec.STEP), args.repeat)
+            rows[name] = {"fmu_ms": t_fmu * 1e3, "in_process_ms": t_py * 1e3,
+                          "ratio": t_fmu / t_py, "flights_per_s": 1.0 / t_fmu}
+    if args.json:
+        print(json.dumps(rows, indent=1))
+        return
+    print(f"closed-loop reentry flight (~272 s simulated, step {spec.STEP} s, RK4 sub-step 0.5 s)")
+    print(f"{'law':20s} {'FMU [ms]':>10s} {'in-proc [ms]':>13s} {'ratio':>7s} {'flights/s':>10s}")
+    for name, r in rows.items():
+        print(f"{name:20s} {r['fmu_ms']:10.2f} {r['in_process_ms']:13.2f} {r['ratio']:7.2f} "
+              f"{r['flights_per_s']:10.1f}")
+
+
+if __name__ == "__main__":
+    main()
