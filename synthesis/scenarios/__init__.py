@@ -39,4 +39,5 @@ def register(slaves=(), closed_loops=()):
 def load_all():
     """Import every system module so that it registers itself."""
     from synthesis.scenarios import reentry  # noqa: F401
+    from synthesis.scenarios import telescope  # noqa: F401
     from synthesis.scenarios import mars  # noqa: F401
