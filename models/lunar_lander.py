@@ -39,11 +39,15 @@ from models.integrators import locate_crossing, rk4_step_with_k1
 
 __all__ = ["LanderParams", "InfeasibleLandingError", "rhs", "constant_flow_state",
            "stopping_time", "switch_height", "optimal_landing", "OptimalLanding",
-           "LanderIntegrator", "LunarLander", "DT_INTEGRATION", "solve_increasing"]
+           "LanderIntegrator", "LunarLander", "DT_INTEGRATION", "H_CONTACT", "solve_increasing"]
 
 #: Default RK4 sub-step inside the FMU [s]: the powered arc is smooth (u constant inside a
 #: communication step), so one RK4 step of 0.01 s has a local error below 1e-12 m.
 DT_INTEGRATION = 0.01
+#: Touchdown is declared at h <= H_CONTACT [m] (located inside the RK4 step).  A law that brakes
+#: exactly onto h = V = 0 would otherwise hover at h ~ 1e-17 m, chattering, before rounding lets
+#: it touch; 1 micrometre ends that without changing any reported digit.
+H_CONTACT = 1e-6
 
 
 class InfeasibleLandingError(ParameterError):
@@ -311,14 +315,18 @@ def optimal_landing(p: LanderParams = LanderParams()) -> OptimalLanding:
 
 
 class LanderIntegrator:
-    """Advance the S3 plant with RK4 sub-steps; stop exactly at touchdown (h = 0).
+    """Advance the S3 plant with RK4 sub-steps; stop at touchdown (h = h_contact, in the step).
 
     The one integrator of the plant: the :class:`LunarLander` FMU owns one.  ``u`` is clipped to
     ``[0, umax]`` and cut to 0 once the mass would fall below ``m_dry``.
     """
 
-    def __init__(self, p: LanderParams, dt: float = DT_INTEGRATION, m_dry: float = 1.0):
+    def __init__(self, p: LanderParams, dt: float = DT_INTEGRATION, m_dry: float = 1.0,
+                 h_contact: float = H_CONTACT):
         self.p = p.validate()
+        if not (math.isfinite(h_contact) and h_contact >= 0.0):
+            raise ParameterError(f"parameter h_contact must be >= 0 m, got {h_contact!r}")
+        self.h_contact = h_contact
         if not (math.isfinite(dt) and dt > 0.0):
             raise ParameterError(f"integration step dt must be > 0 s, got {dt!r}")
         if not (math.isfinite(m_dry) and 0.0 < m_dry < p.m0):
@@ -332,7 +340,7 @@ class LanderIntegrator:
         p = self.p
         self.t = 0.0
         self.x = (p.h0, p.V0, p.m0)
-        self.touched_down = p.h0 <= 0.0
+        self.touched_down = p.h0 <= self.h_contact
         self.t_touchdown = 0.0 if self.touched_down else math.nan
         self.V_touchdown = p.V0 if self.touched_down else math.nan
 
@@ -351,12 +359,13 @@ class LanderIntegrator:
         hstep = span / n
         args = (u,) + self.args
         x, t0 = self.x, self.t
+        hc = self.h_contact
         for i in range(n):
             k1 = rhs(x, *args)
             xn = rk4_step_with_k1(rhs, x, k1, hstep, args)
-            if xn[0] <= 0.0:
-                s, xn = locate_crossing(rhs, x, k1, hstep, args, lambda y: y[0], x[0], xn[0],
-                                        tol=1e-12)
+            if xn[0] <= hc:
+                s, xn = locate_crossing(rhs, x, k1, hstep, args, lambda y: y[0] - hc, x[0] - hc,
+                                        xn[0] - hc, tol=1e-13)
                 self.x = (0.0, xn[1], xn[2])
                 self.t = t_end
                 self.t_touchdown = t0 + (i + s) * hstep
@@ -384,6 +393,7 @@ class LunarLander(SlaveBase):
             self.parameter(name, getattr(d, name), desc)
         self.parameter("m_dry", 1.0, "mass below which the engine is cut (guard) [kg]")
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
+        self.parameter("h_contact", H_CONTACT, "altitude at which touchdown is declared [m]")
         self.input("u", 0.0, "fuel flow, clipped to [0, umax] [kg/s]")
         fi = lambda: self._fi  # noqa: E731
         self.output("h", "altitude [m]", getter=lambda: fi().x[0])
@@ -394,7 +404,8 @@ class LunarLander(SlaveBase):
                     getter=lambda: fi().t_touchdown if fi().touched_down else -1.0)
         self.output("V_touchdown", "downward speed at touchdown, 0 before [m/s]",
                     getter=lambda: fi().V_touchdown if fi().touched_down else 0.0)
-        self.int_output("touched_down", "1 from touchdown (h = 0, located inside the step) on [1]",
+        self.int_output("touched_down", "1 from touchdown (h <= h_contact, located inside the "
+                        "step) on [1]",
                         getter=lambda: int(fi().touched_down))
         self.apply_resource_defaults()
         self.prepare()
@@ -408,9 +419,11 @@ class LunarLander(SlaveBase):
         if not 0.0 < self.m_dry < self.m0:
             raise ParameterError(f"parameter m_dry must be in (0, m0 = {self.m0}) kg, "
                                  f"got {self.m_dry}")
+        if not 0.0 <= self.h_contact < 1.0:
+            raise ParameterError(f"parameter h_contact must be in [0, 1) m, got {self.h_contact}")
 
     def prepare(self) -> None:
-        self._fi = LanderIntegrator(self._params(), self.dt, self.m_dry)
+        self._fi = LanderIntegrator(self._params(), self.dt, self.m_dry, self.h_contact)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         self._fi.advance(current_time + step_size, self.u)
