@@ -45,8 +45,8 @@ __all__ = ["MarsParams", "descent", "precession", "rhs", "observe", "initial_sta
 
 #: Default RK4 sub-step of the averaged plant [s] (tests/test_mars.py: against solve_ivp).
 DT_INTEGRATION = 0.1
-#: Default communication step of the closed loop [s] (models/README.md: effect of the step).
-STEP = 0.1
+#: Default communication step of the closed loop [s] (= synthesis.scenarios.mars.STEP).
+STEP = 0.05
 #: Time limit of a flight [s] (the default descent reaches h_end at t ~ 660 s).
 T_MAX = 1500.0
 
