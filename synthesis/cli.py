@@ -13,6 +13,7 @@ import sys
 #: Modules that add sub-commands (one line per system).
 COMMAND_MODULES = [
     "synthesis.commands.reentry",
+    "synthesis.commands.reorient",
     "synthesis.commands.mars",
 ]
 
