@@ -1,0 +1,62 @@
+#!/usr/bin/env python
+"""S4 benchmark: run time of the direct method (rigid and flexible) beside the thesis' 1.7 s.
+
+Prints the median wall time of several solves, the iterations and the ratio to the paper's
+figure (seed 003, Example 1: 5 iterations, 1.7 s on an Athlon 64 3000+, 1 core, 1.8 GHz), and
+the FMU replay time if the FMUs are built ($DESCENT_FMUS_DIR or fmus/).  No assertions.
+
+Usage: ``python benchmarks/telescope.py [--repeat N]``.
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from synthesis.reorientation import (PAPER_ITERATIONS, PAPER_SECONDS, replay,  # noqa: E402
+                                     reorient)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    args = ap.parse_args(argv)
+    reorient()  # warm-up (imports, caches)
+    print(f"paper (seed 003, rigid): {PAPER_ITERATIONS} iterations to 1e-7, {PAPER_SECONDS} s")
+    for flex in (False, True):
+        times, ro = [], None
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            ro = reorient(flexible=flex)
+            times.append(ro.result.seconds if not flex else time.perf_counter() - t0)
+        med = statistics.median(times)
+        r = ro.result
+        tag = "flexible (reduced alg.)" if flex else "rigid"
+        solve_s = r.seconds
+        print(f"{tag:24s}: {r.iterations} iterations to {ro.tol:g}, final miss "
+              f"{r.max_miss:.1e}; solve {solve_s:.3f} s (ratio to 1.7 s: {solve_s / PAPER_SECONDS:.3f})"
+              + (f"; with the rigid solve + warm start and metrics {med:.3f} s median"
+                 if flex else f"; median of {args.repeat}: {med:.3f} s "
+                 f"(ratio {med / PAPER_SECONDS:.3f})"))
+        print(f"{'':24s}  misses per iteration: "
+              + ", ".join(f"{h['max_miss']:.1e}" for h in r.history))
+        if flex:
+            print(f"{'':24s}  rigid solution on the flexible model misses by "
+                  f"{ro.rigid_on_flexible_miss:.1e}; reduced algorithm from it: "
+                  f"{ro.warm_iterations} iterations")
+        fmus = Path(os.environ.get("DESCENT_FMUS_DIR", ROOT / "fmus"))
+        if (fmus / "ProgramController.fmu").is_file():
+            rep = replay(ro, fmus)
+            print(f"{'':24s}  FMU replay (fmpy, step 0.5 s): {rep['replay_seconds']:.3f} s, "
+                  f"error vs target {rep['replay_error_vs_target']:.1e}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
