@@ -106,10 +106,12 @@ def plot_alpha(runs, path, title: str | None = None, log: bool = True) -> Path:
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
-    for r in runs:
+    for i, r in enumerate(runs):
         res = r.result
-        ax[0].plot(res.time, res["alpha"], label=f"{r.label}: alpha_end = {r.alpha_end:.2e} rad")
-        ax[1].plot(res.time, res["ctrl.u"], lw=0.6, label=r.label)
+        ls = "--" if i >= 2 else "-"     # a third run may lie on the first (paper's root)
+        ax[0].plot(res.time, res["alpha"], ls=ls,
+                   label=f"{r.label}: alpha_end = {r.alpha_end:.2e} rad")
+        ax[1].plot(res.time, res["ctrl.u"], ls=ls, lw=0.6, label=r.label)
     ax[0].axhline(ALPHA_TARGET, color="k", ls=":", lw=0.8, label="0.01 rad")
     if log:
         ax[0].set_yscale("log")
