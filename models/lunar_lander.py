@@ -290,8 +290,9 @@ def optimal_landing(p: LanderParams = LanderParams()) -> OptimalLanding:
     f_lo = h_err(s_min)
     if f_lo < 0.0:
         raise InfeasibleLandingError(
-            f"from h0 = {p.h0} m at V0 = {p.V0} m/s full thrust at once stops only at "
-            f"{-f_lo:.4g} m below the ground: the lander cannot land softly (raise umax or h0)")
+            f"from h0 = {p.h0} m at V0 = {p.V0} m/s even full thrust from t = 0 brings the "
+            f"speed to zero only {-f_lo:.4g} m below the ground: no soft landing exists (raise "
+            f"umax or h0, or lower V0)")
     s_hi = (1.0 - 1e-9) / a
     if h_err(s_hi) > 0.0:
         raise InfeasibleLandingError("the fuel runs out before the lander can stop")

@@ -15,6 +15,7 @@ COMMAND_MODULES = [
     "synthesis.commands.reentry",
     "synthesis.commands.reorient",
     "synthesis.commands.mars",
+    "synthesis.commands.land",
 ]
 
 

@@ -310,7 +310,7 @@ def _singular_message(pb, z, tr, sv):
 
 
 def newton(fun, z0, tol: float = 1e-5, max_iter: int = 50, damped: bool = False,
-           fd_step: float = 1e-7, domain=None, on_singular=None, cond_max: float = 1e13):
+           fd_step: float = 1e-7, domain=None, on_singular=None, cond_max: float = 1e8):
     """Solve ``fun(z) = 0`` by Newton's method with a forward-difference Jacobian.
 
     Parameters
@@ -331,6 +331,11 @@ def newton(fun, z0, tol: float = 1e-5, max_iter: int = 50, damped: bool = False,
         Reason why ``z`` is invalid (e.g. ``T <= 0``); a step into it is halved.
     on_singular : callable ``(z, singular values) -> str``, optional
         Builds the message of :class:`SingularJacobianError`.
+    cond_max : float
+        Condition number (ratio of extreme singular values) above which the Jacobian counts as
+        singular.  A structurally zero column computed by finite differences of an adaptive
+        integration is not exactly zero but ~1e-9 of the others (integrator noise / fd step);
+        a regular Jacobian of S3 has a condition number of ~2e3.
 
     Returns
     -------

@@ -41,3 +41,4 @@ def load_all():
     from synthesis.scenarios import reentry  # noqa: F401
     from synthesis.scenarios import telescope  # noqa: F401
     from synthesis.scenarios import mars  # noqa: F401
+    from synthesis.scenarios import lunar_landing  # noqa: F401
