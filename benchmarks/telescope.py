@@ -40,7 +40,8 @@ def main(argv=None) -> int:
         tag = "flexible (reduced alg.)" if flex else "rigid"
         solve_s = r.seconds
         print(f"{tag:24s}: {r.iterations} iterations to {ro.tol:g}, final miss "
-              f"{r.max_miss:.1e}; solve {solve_s:.3f} s (ratio to 1.7 s: {solve_s / PAPER_SECONDS:.3f})"
+              f"{r.max_miss:.1e}; solve {solve_s:.3f} s "
+              f"(ratio to 1.7 s: {solve_s / PAPER_SECONDS:.3f})"
               + (f"; with the rigid solve + warm start and metrics {med:.3f} s median"
                  if flex else f"; median of {args.repeat}: {med:.3f} s "
                  f"(ratio {med / PAPER_SECONDS:.3f})"))

@@ -2,8 +2,8 @@
 
 Parameters: ``n_nodes`` (Integer, <= NODES_MAX), ``t_end`` [s] and the node values
 ``table[i,j]`` (node ``i`` = 1..n_nodes at ``t = (i-1) t_end / (n_nodes-1)``, channel ``j``).
-Outputs at the current time ``t``: ``u[j]`` = the interpolated value and ``du[j]`` = the slope of the
-segment that starts at ``t`` (0 after ``t_end``).
+Outputs at the current time ``t``: ``u[j]`` = the interpolated value and ``du[j]`` = the slope of
+the segment that starts at ``t`` (0 after ``t_end``).
 
 Interface choice (models/README.md): the co-simulation master holds every controller output over
 a communication step.  The telescope plants take ``u`` *and* ``du`` and integrate

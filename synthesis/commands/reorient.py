@@ -50,8 +50,8 @@ def run(args) -> int:
         from synthesis.cosim import FMUNotFoundError
         try:
             s.update(replay(ro, args.fmus))
-        except FMUNotFoundError as exc:
-            raise CliError(str(exc)) from None
+        except (FMUNotFoundError, ValueError) as exc:
+            raise CliError(f"cannot replay through the FMUs: {exc}") from None
     if args.plot:
         s["plots"] = [str(p) for p in plot_reorientation(ro, args.plot)]
     lines = [f"S4 reorientation ({s['model']} model, T = {s['T']:g} s, tol {s['tol']:g}): "
