@@ -1,4 +1,4 @@
-"""S2 -- asymmetric capsule in the Mars atmosphere: descent + quasi-linear angle-of-attack equations.
+"""S2 -- asymmetric capsule in the Mars atmosphere: descent + quasi-linear angle of attack.
 
 Planar point-mass descent over a spherical, non-rotating Mars with an exponential atmosphere
 (state ``V`` [m/s], path angle ``gamma`` [rad], altitude ``h`` [m], range ``s`` [m])::

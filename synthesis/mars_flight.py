@@ -64,13 +64,16 @@ class MarsRun:
         return out
 
 
-def open_loop(fmu_dir=FMU_DIR, plant: str = "MarsCapsule", wiring=None,
-              record=RECORD) -> ClosedLoop:
-    """Load the plant FMU and the controller FMU once (reset per :func:`fly`)."""
+def open_loop(fmu_dir=FMU_DIR, wiring=None, record=RECORD) -> ClosedLoop:
+    """Load the plant FMU and the controller FMU of ``wiring`` once (reset per :func:`fly`).
+
+    ``wiring`` defaults to the averaged plant's :data:`synthesis.scenarios.mars.WIRING`; pass
+    ``WIRING_6DOF`` (with ``record=RECORD_6DOF``) for the rigid-body plant.
+    """
     fmu_dir = Path(fmu_dir)
     w = wiring or spec.WIRING
-    return ClosedLoop(w, fmu_dir / f"{w.plant if wiring else plant}.fmu",
-                      fmu_dir / "MarsBellmanController.fmu", record=record)
+    return ClosedLoop(w, fmu_dir / f"{w.plant}.fmu", fmu_dir / f"{w.controller}.fmu",
+                      record=record)
 
 
 def fly(loop: ClosedLoop, label: str, plant_values: dict | None = None,
