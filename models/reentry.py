@@ -156,8 +156,10 @@ class FlightIntegrator:
     (:func:`simulate`) uses the same class.
     """
 
-    def __init__(self, p: ReentryParams, dt: float = DT_INTEGRATION):
+    def __init__(self, p: ReentryParams, dt: float = DT_INTEGRATION, trace: bool = False):
         self.p = p.validate()
+        #: list of (t, load) at every sample if ``trace`` (open-loop optimisation), else None
+        self.trace = [] if trace else None
         if not (math.isfinite(dt) and dt > 0.0):
             raise ParameterError(f"integration step dt must be > 0, got {dt!r}")
         self.dt = dt
@@ -165,6 +167,8 @@ class FlightIntegrator:
         self.reset()
 
     def reset(self):
+        if self.trace is not None:
+            self.trace.clear()
         self.t = 0.0
         self.x = initial_state(self.p)
         self.landed = False
@@ -182,6 +186,8 @@ class FlightIntegrator:
             self.load_max = self.load
         if self.aero_load > self.aero_load_max:
             self.aero_load_max = self.aero_load
+        if self.trace is not None:
+            self.trace.append(self.load)
 
     def advance(self, t_end: float, u: float) -> None:
         """Integrate from ``self.t`` to ``t_end`` with the control held at ``u``."""
@@ -219,12 +225,14 @@ class FlightIntegrator:
 
 
 def simulate(p: ReentryParams = ReentryParams(), control=lambda t, x: 0.0, step: float = 1.0,
-             t_plus: float = T_PLUS, dt: float = DT_INTEGRATION) -> FlightIntegrator:
+             t_plus: float = T_PLUS, dt: float = DT_INTEGRATION,
+             trace: bool = False) -> FlightIntegrator:
     """Fly S1 in-process with ``u = control(t, x)`` held over communication steps ``step`` [s].
 
-    Returns the finished :class:`FlightIntegrator` (``t_land``, ``x``, ``load_max``...).
+    Returns the finished :class:`FlightIntegrator` (``t_land``, ``x``, ``load_max``, and the
+    load at every sample in ``trace`` if requested).
     """
-    fi = FlightIntegrator(p, dt)
+    fi = FlightIntegrator(p, dt, trace)
     k = 0
     while not fi.landed and not fi.diverged and fi.t < t_plus - 1e-9:
         u = min(max(control(fi.t, fi.x), U_BOUNDS[0]), U_BOUNDS[1])

@@ -7,8 +7,11 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import sys
+
+# defined in synthesis.commands so that 'python -m synthesis.cli' and the installed script
+# share one class (a module run as __main__ is loaded twice)
+from synthesis.commands import CliError, emit  # noqa: F401
 
 #: Modules that add sub-commands (one line per system).
 COMMAND_MODULES = [
@@ -16,19 +19,8 @@ COMMAND_MODULES = [
     "synthesis.commands.reorient",
     "synthesis.commands.mars",
     "synthesis.commands.land",
+    "synthesis.commands.synthesize",
 ]
-
-
-class CliError(Exception):
-    """A user error: printed as one line, exit code 2, no traceback."""
-
-
-def emit(args, summary: dict, text: str) -> None:
-    """Print ``summary`` as JSON if ``--json`` was given, else the human-readable ``text``."""
-    if getattr(args, "json", False):
-        print(json.dumps(summary, indent=2, default=float))
-    else:
-        print(text)
 
 
 def build_parser() -> argparse.ArgumentParser:

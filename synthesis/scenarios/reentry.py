@@ -70,3 +70,74 @@ def objectives(final: dict, params) -> dict:
         j2 = NOT_LANDED_PENALTY + abs(params.Lf - L) + max(h - params.hf, 0.0)
     return {"J1": j1, "J2": j2, "aero_load_max": aero, "landed": landed,
             "t_land": final["t_land"], "L_final": L, "h_final": h, "diverged": False}
+
+
+# -- synthesis (issue 3): the problem the variational GA solves --------------------------------
+def synthesis_basic_law():
+    """The GA's first basic solution: the paper's basic law on a 16-node matrix.
+
+    Nodes: 1 y1, 2 y2, 3-6 q1..q4 (q3, q4 unused until a variation connects them),
+    7 = q1*y1, 8 = q2*y2, 9 = 7 + 8, then identity nodes 10..16 (+) carrying z9 to the output
+    node 16 -- spare nodes on which the variations can build structure, as in the paper's law.
+    """
+    import numpy as np
+
+    from models.controllers.network_operator import PAPER_Q
+    from synthesis.network_operator import NetworkOperator
+    L = 16
+    psi = np.zeros((L, L), dtype=int)
+    for a, b, op in [(1, 7, 1), (3, 7, 1), (2, 8, 1), (4, 8, 1), (7, 9, 1), (8, 9, 1)]:
+        psi[a - 1, b - 1] = op
+    psi[6, 6], psi[7, 7], psi[8, 8] = 2, 2, 1
+    for k in range(9, L):
+        psi[k - 1, k] = 1
+        psi[k, k] = 1
+    return NetworkOperator(psi, nx=2, q=list(PAPER_Q) + [1.0, 1.0], outputs=[L],
+                           input_names=["y1", "y2"])
+
+
+def synthesis_objectives(finals):
+    """(J1, J2) and reported values of one flight of the default scenario."""
+    from models.reentry import ReentryParams
+    o = objectives(finals[0], ReentryParams())
+    return (o["J1"], o["J2"]), {k: o[k] for k in ("aero_load_max", "landed", "t_land",
+                                                  "L_final", "diverged")}
+
+
+#: miss below which a law counts as landing on target (issue 3 acceptance) [m]
+ON_TARGET = 1000.0
+
+
+def headline(front):
+    """Progress-bar field: best J1 among front members with miss < 1 km."""
+    ok = front[front[:, 1] < ON_TARGET]
+    return {"J1@miss<1km": f"{ok[:, 0].min():.4f}" if len(ok) else "-"}
+
+
+def summary(rows, reference_j1=None):
+    """Report fields of a finished run: the best law with miss < 1 km and its ratio to the
+    open-loop optimum (SPEC S1 target: <= 1.03)."""
+    ok = [r for r in rows if r["J2"] < ON_TARGET]
+    if not ok:
+        return {"best_miss_below_1km": None}
+    best = min(ok, key=lambda r: r["J1"])
+    out = {"best_miss_below_1km": {"k": best["k"], "J1": best["J1"], "J2": best["J2"],
+                                   "formula": best["formula"]}}
+    if reference_j1:
+        out["open_loop_J1"] = reference_j1
+        out["ratio_to_open_loop"] = best["J1"] / reference_j1
+    return out
+
+
+def _register_problem():
+    from models.reentry import ReentryParams
+    from synthesis.evaluator import SynthesisProblem, register_problem
+    register_problem(SynthesisProblem(
+        name="reentry", wiring=WIRING, initial_states=(plant_values(ReentryParams()),),
+        objectives=synthesis_objectives, objective_names=("J1", "J2"),
+        penalty=(DIVERGED_J1, 2 * NOT_LANDED_PENALTY), basic_law=synthesis_basic_law,
+        description="S1 Earth reentry: min max load (J1) and miss at hf (J2) [m]",
+        defaults={"headline": headline, "summary": summary}))
+
+
+_register_problem()
