@@ -426,6 +426,15 @@ class LunarLander(SlaveBase):
     def prepare(self) -> None:
         self._fi = LanderIntegrator(self._params(), self.dt, self.m_dry, self.h_contact)
 
+    def enter_initialization_mode(self):
+        # the start values are set by now: outputs read during initialisation (a container FMU
+        # propagates its connections then) must show them; invalid values are reported at exit
+        try:
+            self.check_parameters()
+        except ParameterError:
+            return
+        self.prepare()
+
     def do_step(self, current_time: float, step_size: float) -> bool:
         self._fi.advance(current_time + step_size, self.u)
         return True

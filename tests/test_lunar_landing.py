@@ -162,6 +162,16 @@ def test_container_fmus_run_with_fmpy_simulate(fmu_dir, loops):
         assert res["touched_down"][-1] == 1
         assert res["V_touchdown"][-1] == pytest.approx(td.V_touchdown, abs=1e-12)
         assert res["fuel"][-1] == pytest.approx(td.fuel, abs=1e-9)
+    # dispersed start values through the container's parameters: the container propagates its
+    # connections during initialisation, so the FMUs must show their start values already then
+    # (a stale V once became a "gravity" of 81.65 m/s^2 in the feedback law's estimate)
+    res = simulate_fmu(str(fmu_dir / "LunarLanderFeedbackClosedLoop.fmu"), stop_time=30.0,
+                       start_values={"h0": 160.0, "V0": 9.0, "gL": 1.65},
+                       output=["V_touchdown", "touched_down", "g_est"])
+    td, _ = loops.fly("feedback", h0=160.0, V0=9.0, gL=1.65)
+    assert res["touched_down"][-1] == 1 and abs(res["V_touchdown"][-1]) < 0.05
+    assert res["g_est"][-1] == pytest.approx(1.65, rel=1e-9)
+    assert res["V_touchdown"][-1] == pytest.approx(td.V_touchdown, abs=1e-9)
 
 
 def test_plant_fmu_rejects_bad_parameters(fmu_dir):

@@ -32,7 +32,11 @@ from models.fmu_support import ParameterError, SlaveBase, require_positive
 from models.lunar_lander import (InfeasibleLandingError, LanderParams, constant_flow_state,
                                  solve_increasing, switch_height)
 
-__all__ = ["SwitchLaw", "LandingSwitch"]
+__all__ = ["SwitchLaw", "LandingSwitch", "G_GATE"]
+
+#: A gravity estimate further than this fraction from ``g_nominal`` is rejected (the dispersion
+#: of interest is ±2 %; a wrong speed sample gives errors of order 100 %).
+G_GATE = 0.25
 
 
 class SwitchLaw:
@@ -71,9 +75,11 @@ class SwitchLaw:
         """Fuel flow [kg/s] for the coming step from the measured ``h`` [m], ``V`` [m/s], ``m``."""
         if self.estimate_g and self._fresh and self._last is not None:
             V_prev, u_prev, dt_prev = self._last
-            if u_prev == 0.0 and dt_prev > 0.0:
+            if u_prev == 0.0 and dt_prev > 0.0 and V_prev is not None:
                 g = (V - V_prev) / dt_prev
-                if math.isfinite(g) and g > 0.0:
+                # plausibility gate: a speed sample that is not a fresh measurement (e.g. an
+                # input not yet updated by the master) must not become "gravity"
+                if math.isfinite(g) and abs(g - self.g_nominal) <= G_GATE * self.g_nominal:
                     self.g = g
             self._fresh = False
         if not (math.isfinite(h) and math.isfinite(V) and math.isfinite(m) and m > 0.0):
@@ -95,7 +101,8 @@ class SwitchLaw:
         return solve_increasing(margin, 0.0, umax, f0, f1, xtol=1e-12 * umax)
 
     def stepped(self, V, u, dt):
-        """Report the step just taken: speed at its start [m/s], control [kg/s], size [s]."""
+        """Report the step just taken: speed at its start [m/s] (None if it was not measured
+        for this step), control [kg/s], size [s]."""
         self._last = (V, u, dt)
         self._fresh = True
         if dt > 0.0:
@@ -123,6 +130,7 @@ class LandingSwitch(SlaveBase):
                            "g_nominal throughout [1]")
         self.parameter("step", 0.01, "communication step assumed before the first doStep [s]")
         self._dirty = True
+        self._measured = False
         self._u = 0.0
         for name, desc in (("h", "measured altitude [m]"), ("V", "measured downward speed [m/s]"),
                            ("m", "measured mass [kg]")):
@@ -139,6 +147,16 @@ class LandingSwitch(SlaveBase):
     def _set(self, name, value):
         setattr(self, name, value)
         self._dirty = True
+        self._measured = True
+
+    def enter_initialization_mode(self):
+        # parameters are set by now: build the law so outputs read during initialisation
+        # (e.g. by a container FMU) already use them; errors are reported at exit
+        try:
+            self.check_parameters()
+        except ParameterError:
+            return
+        self.prepare()
 
     def check_parameters(self) -> None:
         for name in ("umax", "beta", "g_nominal", "step"):
@@ -157,6 +175,9 @@ class LandingSwitch(SlaveBase):
         return self._u
 
     def do_step(self, current_time: float, step_size: float) -> bool:
-        self._law.stepped(self.V, self._output(), step_size)
+        # V counts as a measurement of this step only if the master set the inputs since the
+        # last step (a container may step once before its first connection update)
+        self._law.stepped(self.V if self._measured else None, self._output(), step_size)
+        self._measured = False
         self._dirty = True
         return True
