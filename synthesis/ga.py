@@ -21,7 +21,10 @@ Departures from the lab algorithm (SPEC S1, the authors' Free-Pascal programs), 
   member if it is less crowded itself (the lab rule would freeze the population there), which
   keeps the front spread; a child whose objectives equal an existing member's is dropped;
 * the epoch normalises the objectives over the current Pareto set, not the whole population, so a
-  few penalised laws (a flight that never reaches hf) do not flatten the normalisation.
+  few penalised laws (a flight that never reaches hf) do not flatten the normalisation;
+* an external archive keeps the non-dominated laws of the whole run (capped by crowding): an
+  epoch re-reads every variation list against the new basis and would otherwise lose good laws;
+  the result of a run is the archive.
 
 References
 ----------
@@ -178,8 +181,10 @@ class VariationalGA:
     """
 
     def __init__(self, params: GrayCodec, q0, rng: np.random.Generator, config: GAConfig,
-                 structure: StructureCodec | None = None, psi0=None, decode=None):
+                 structure: StructureCodec | None = None, psi0=None, decode=None,
+                 archive_max: int = 200):
         self.params, self.cfg, self.rng = params, config, rng
+        self.archive_max = archive_max
         self.structure = structure
         self.psi0 = None if psi0 is None else np.array(psi0, dtype=int)
         self.q0 = list(q0)
@@ -192,6 +197,7 @@ class VariationalGA:
         self._epoch_due = False
         self._pending_trim = []
         self.history = []             # per generation: (generation, evaluations, n_front, best)
+        self.archive = []             # non-dominated (psi, bits, f, variations) of the whole run
         lchr = config.lchr if structure is not None else 0
         self._lchr = lchr
         basis_bits = params.encode(self.q0)
@@ -240,6 +246,7 @@ class VariationalGA:
         self.evaluations += len(members)
         for m, f in zip(members, F):
             m.f = f
+            self._archive(m)
         self._pending = None
         if phase in ("init", "epoch"):
             self.pop = members
@@ -261,24 +268,32 @@ class VariationalGA:
         self.history.append((self.generation, self.evaluations, int(len(front)),
                              front.min(axis=0).tolist()))
 
+    def _archive(self, m: _Member) -> None:
+        f = m.f
+        if self.archive:
+            A = np.array([a[2] for a in self.archive])
+            if np.any(np.all(A <= f, axis=1)):
+                return                   # weakly dominated by an archived law: adds nothing
+            beaten = np.all(f <= A, axis=1) & np.any(f < A, axis=1)
+            keep = [a for a, b in zip(self.archive, beaten) if not b]
+        else:
+            keep = []
+        keep.append((self.matrix(m), m.bits.copy(), f.copy(), list(m.variations)))
+        if len(keep) > self.archive_max:
+            cd = crowding_distance(np.array([a[2] for a in keep]))
+            del keep[int(np.argmin(cd))]
+        self.archive = keep
+
     @property
     def F(self) -> np.ndarray:
         return np.array([m.f for m in self.pop])
 
     def pareto(self) -> list:
-        """(candidate, objectives, variations) of the current Pareto set, sorted by objective 1,
-        duplicates (equal objective vectors) removed."""
-        idx = np.flatnonzero(self.lh == 0)
-        idx = idx[np.argsort(self.F[idx, 0], kind="stable")]
-        seen, out = set(), []
-        for k in idx:
-            key = tuple(self.pop[k].f)
-            if key in seen:
-                continue
-            seen.add(key)
-            out.append((self.candidate(self.pop[k]), self.pop[k].f.copy(),
-                        list(self.pop[k].variations)))
-        return out
+        """(candidate, objectives, variations) of the run's Pareto set (the archive), sorted by
+        objective 1; the variations are relative to the basis current when the law was found."""
+        arch = sorted(self.archive, key=lambda a: tuple(a[2]))
+        return [(self.decode(psi, self.params.decode(bits)), f.copy(), list(v))
+                for psi, bits, f, v in arch]
 
     def run(self, evaluate, generations: int, callback=None):
         """Evaluate the initial population, then ``generations`` generations.
@@ -424,6 +439,9 @@ class VariationalGA:
             "population": [{"v": [list(v) for v in m.variations],
                             "b": "".join(map(str, m.bits.tolist())), "f": m.f.tolist()}
                            for m in self.pop],
+            "archive": [{"psi": None if psi is None else psi.tolist(),
+                         "b": "".join(map(str, bits.tolist())), "f": f.tolist(),
+                         "v": [list(x) for x in v]} for psi, bits, f, v in self.archive],
         }
 
     def load_state(self, st: dict) -> "VariationalGA":
@@ -438,6 +456,10 @@ class VariationalGA:
                             np.array(m["f"], float)) for m in st["population"]]
         for m in self.pop:
             m.bits = m.bits.copy()
+        self.archive = [(None if a["psi"] is None else np.array(a["psi"], dtype=int),
+                         (np.frombuffer(a["b"].encode(), dtype=np.uint8) - ord("0")).copy(),
+                         np.array(a["f"], float), [tuple(x) for x in a["v"]])
+                        for a in st["archive"]]
         self.lh = dominance_counts(self.F)
         self._pending = None
         return self

@@ -1,0 +1,156 @@
+"""Reentry synthesis: the evaluator's numbers come from the FMUs; runs resume; bad input."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import simulate_fmu
+
+from synthesis.evaluator import Evaluator, SchedulerError, get_problem
+from synthesis.ga import GAConfig
+from synthesis.network_operator import NetworkOperator
+from synthesis.reentry_flight import fly
+from synthesis.synthesize import RunDirError, run_synthesis
+
+ROOT = Path(__file__).resolve().parent.parent
+SMALL = GAConfig(population=16, crossovers=6, lchr=4, epoch=3, elite_trim=2)
+
+
+def test_evaluator_equals_an_fmpy_run(fmu_dir):
+    # the evaluator is built from FMU paths alone; its objectives equal a plain closed-loop run
+    laws = [NetworkOperator.basic_law(), NetworkOperator.paper_law(),
+            get_problem("reentry").basic_law()]
+    with Evaluator("reentry", fmu_dir) as ev:
+        F, extras = ev.evaluate(laws + laws)         # duplicates are not simulated twice
+        assert ev.simulated == 3
+    for law, f in zip(laws, F):
+        o = fly(law, fmu_dir=fmu_dir).objectives
+        assert f[0] == o["J1"] and f[1] == o["J2"]
+
+
+def test_fmu_error_costs_one_candidate(fmu_dir):
+    bad = NetworkOperator.basic_law()
+    bad.psi[0, 4] = 99            # bypasses validation: the FMU itself must reject it
+    good = NetworkOperator.basic_law()
+    with Evaluator("reentry", fmu_dir) as ev:
+        F, extras = ev.evaluate([bad, good])
+        assert ev.failures == 1
+    prob = get_problem("reentry")
+    assert tuple(F[0]) == prob.penalty and extras[0]["failed"] is True
+    assert "unknown unary operation 99" in extras[0]["error"]
+    assert F[1][0] == pytest.approx(fly(good, fmu_dir=fmu_dir).objectives["J1"], rel=1e-15)
+
+
+def test_local_pool_equals_in_process(fmu_dir):
+    rng = np.random.default_rng(3)
+    laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
+    with Evaluator("reentry", fmu_dir) as ev1, Evaluator("reentry", fmu_dir, workers=2) as ev2:
+        assert np.array_equal(ev1.evaluate(laws)[0], ev2.evaluate(laws)[0])
+
+
+def _run(out, fmu_dir, generations=6, **kw):
+    return run_synthesis("reentry", out, fmu_dir, SMALL, generations, seed=11, progress=False,
+                         **kw)
+
+
+def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):
+    full = _run(tmp_path / "full", fmu_dir, export=False)
+    part = _run(tmp_path / "part", fmu_dir, export=False, stop_after=2)
+    assert part["interrupted"]
+    ck = json.loads((tmp_path / "part" / "checkpoint.json").read_text())
+    assert ck["generation"] == 2
+    done = _run(tmp_path / "part", fmu_dir, export=False, resume=True)
+    assert (tmp_path / "full" / "pareto.csv").read_text() == \
+        (tmp_path / "part" / "pareto.csv").read_text()
+    assert done["generations"] == full["generations"] == 6
+
+
+def test_killed_cli_run_resumes(fmu_dir, tmp_path):
+    # a real SIGKILL in the middle of a CLI run: resume loses at most one generation and
+    # finishes with the same Pareto set as an uninterrupted run of the same seed
+    args = [sys.executable, "-m", "synthesis.cli", "synthesize", "reentry", "--population", "16",
+            "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
+            "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--fmus", str(fmu_dir)]
+    subprocess.run(args + ["--out", str(tmp_path / "ref")], check=True, cwd=ROOT,
+                   capture_output=True)
+    out = tmp_path / "killed"
+    proc = subprocess.Popen(args + ["--out", str(out)], cwd=ROOT, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    gen = -1
+    while time.time() < deadline and proc.poll() is None:
+        try:
+            gen = json.loads((out / "checkpoint.json").read_text())["generation"]
+        except (OSError, ValueError, KeyError):
+            gen = -1
+        if gen >= 3:
+            break
+        time.sleep(0.02)
+    assert proc.poll() is None, "the run finished before it could be killed"
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait()
+    assert not (out / "pareto.csv").exists()
+    res = subprocess.run(args + ["--out", str(out), "--resume", "--json"], cwd=ROOT,
+                         capture_output=True, text=True)
+    assert res.returncode == 0, res.stderr
+    assert json.loads(res.stdout)["generations"] == 10
+    assert (out / "pareto.csv").read_text() == (tmp_path / "ref" / "pareto.csv").read_text()
+
+
+def test_exported_law_reproduces_its_pareto_row(fmu_dir, tmp_path):
+    # the GA's numbers come from the FMUs: an exported law's closed-loop FMU, run by fmpy
+    # simulate, reproduces the J1 and miss of its row in pareto.csv
+    s = _run(tmp_path / "run", fmu_dir, generations=3)
+    rows = s["pareto"]
+    assert rows and (tmp_path / "run" / "pareto.png").stat().st_size > 1000
+    for r in rows[:3]:
+        res = simulate_fmu(r["closed_loop_fmu"], output=["L", "load_max", "landed"])
+        last = res[-1]
+        assert last["load_max"] == pytest.approx(r["J1"], rel=1e-12)
+        if last["landed"]:
+            assert abs(last["L"] - 1_400_000.0) == pytest.approx(r["J2"], rel=1e-9, abs=1e-6)
+        law = NetworkOperator.load(Path(r["closed_loop_fmu"]).parent / "law.json")
+        assert law.formula(6) == r["formula"]
+
+
+def test_bad_input(fmu_dir, tmp_path):
+    with pytest.raises(KeyError, match="unknown synthesis problem 'mars-orbit'"):
+        get_problem("mars-orbit")
+    with pytest.raises(SchedulerError, match="cannot reach the Dask scheduler"):
+        Evaluator("reentry", fmu_dir, scheduler="tcp://127.0.0.1:9", connect_timeout=1.0)
+    d = tmp_path / "other"
+    d.mkdir()
+    (d / "notes.txt").write_text("keep me")
+    with pytest.raises(RunDirError, match="not empty"):
+        _run(d, fmu_dir, generations=1)
+    assert (d / "notes.txt").read_text() == "keep me"
+    _run(tmp_path / "a", fmu_dir, generations=1, export=False)
+    with pytest.raises(RunDirError, match="already holds a run"):
+        _run(tmp_path / "a", fmu_dir, generations=1)
+    with pytest.raises(RunDirError, match="different run"):
+        run_synthesis("reentry", tmp_path / "a", fmu_dir, SMALL, 2, seed=12, progress=False,
+                      resume=True)
+    with pytest.raises(RunDirError, match="no run to resume"):
+        _run(tmp_path / "nothing", fmu_dir, resume=True)
+
+
+def test_cli_messages(fmu_dir, tmp_path):
+    def cli(*a):
+        return subprocess.run([sys.executable, "-m", "synthesis.cli", *a], cwd=ROOT,
+                              capture_output=True, text=True)
+    r = cli("synthesize", "nowhere", "--out", str(tmp_path / "x"))
+    assert r.returncode == 2 and "unknown synthesis problem 'nowhere'" in r.stderr
+    bad = tmp_path / "bad.json"
+    bad.write_text('{"psi": [[0, 1], [0, 0]], "nx": 1, "q": [], "outputs": [5]}')
+    r = cli("fly", "reentry", "--law", str(bad), "--fmus", str(fmu_dir))
+    assert r.returncode == 2 and "output 1 names node 5, outside 1..2" in r.stderr
+    r = cli("synthesize", "reentry", "--scheduler", "tcp://127.0.0.1:9", "--out",
+            str(tmp_path / "y"), "--fmus", str(fmu_dir), "--generations", "1")
+    assert r.returncode == 2 and "cannot reach the Dask scheduler" in r.stderr
