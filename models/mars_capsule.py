@@ -39,6 +39,7 @@ from dataclasses import dataclass, fields, replace
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
 from models.integrators import locate_crossing, rk4_step_with_k1
+from models.pythonfmu_compat import keep_refs_on_error
 
 __all__ = ["MarsParams", "descent", "precession", "rhs", "observe", "initial_state",
            "Flight", "simulate", "MarsCapsule", "DT_INTEGRATION", "STEP", "T_MAX"]
@@ -268,8 +269,11 @@ class Flight:
         x, t0 = self.x, self.t
         self._obs = None
         for i in range(n):
-            k1 = f(x, *args)
-            xn = rk4_step_with_k1(f, x, k1, h, args)
+            try:
+                k1 = f(x, *args)
+                xn = rk4_step_with_k1(f, x, k1, h, args)
+            except (ArithmeticError, ValueError):   # e.g. V -> 0 with absurd parameters
+                xn = (math.nan,)
             if not all(map(math.isfinite, xn)):
                 self.diverged = True
                 self.x, self.t = x, t0 + i * h
@@ -401,6 +405,10 @@ class MarsCapsule(SlaveBase):
         except ParameterError:
             # invalid start values: keep a default plant until exit_initialization_mode reports
             self._fl = self.make_flight(MarsParams())
+
+    @keep_refs_on_error
+    def exit_initialization_mode(self) -> None:
+        super().exit_initialization_mode()
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         u = self.u if math.isfinite(self.u) else 0.0

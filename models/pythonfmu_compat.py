@@ -1,0 +1,40 @@
+"""Work around pythonfmu 0.7's reference counting when a slave callback raises.
+
+When a Python callback of a pythonfmu FMU raises (e.g. ``exit_initialization_mode`` rejecting a
+parameter, which is how an FMU of this project reports fmi2Error), the C++ wrapper
+(``PySlaveInstance::handle_py_exception``) calls ``cleanPyObject()``: it releases its references
+to the slave class, the slave instance and its log queue -- and releases them *again* on the
+following ``fmi2Reset`` / ``fmi2FreeInstance``, since the pointers are not cleared.  The counts
+then go negative and the host process crashes later, typically in the garbage collector
+(reproduced: an error in ``exitInitializationMode``, then ``freeInstance``, then ``gc.collect()``
+-> segmentation fault, with any pythonfmu FMU of this project).
+
+:func:`keep_refs_on_error` wraps a slave method so that, when it raises, one extra reference to
+each of the three objects is taken before the exception reaches the wrapper: the wrapper's extra
+release is balanced and the FMU can be reset or freed safely.
+"""
+from __future__ import annotations
+
+import ctypes
+import functools
+
+__all__ = ["keep_refs_on_error"]
+
+_incref = ctypes.pythonapi.Py_IncRef
+_incref.argtypes = [ctypes.py_object]
+_incref.restype = None
+
+
+def keep_refs_on_error(method):
+    """Decorator for an ``Fmi2Slave`` method that may raise (see the module docstring)."""
+
+    @functools.wraps(method)
+    def wrapper(self, *args, **kwargs):
+        try:
+            return method(self, *args, **kwargs)
+        except BaseException:
+            for obj in (type(self), self, self._get_log_queue()):
+                _incref(obj)
+            raise
+
+    return wrapper
