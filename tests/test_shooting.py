@@ -108,8 +108,9 @@ def test_dymos_moon_landing_oracle(method):
     assert set(np.unique(tr.u[:-1]).round(12)) <= {0.0, MOON["thrust_max"]} or \
         method == "interpolate"                                # averaged only on the switch step
     assert tr.u[0] == 0.0 and tr.u[-2] == MOON["thrust_max"]
-    exact = optimal_landing(LanderParams(gL=1.0, beta=MOON["c"], umax=MOON["thrust_max"] / MOON["c"],
-                                         h0=1.0, V0=-MOON["v0"], m0=1.0))
+    exact = optimal_landing(LanderParams(gL=1.0, beta=MOON["c"],
+                                         umax=MOON["thrust_max"] / MOON["c"], h0=1.0,
+                                         V0=-MOON["v0"], m0=1.0))
     tol = 1e-10 if method == "event" else 1e-6
     assert abs(m_f - (1.0 - exact.fuel)) < tol
     assert abs(res.z[3] - exact.T) < tol * 10

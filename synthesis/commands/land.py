@@ -1,4 +1,4 @@
-"""``descent-fmus land``: S3 lunar soft landing -- shooting solve, figures, closed loops via FMUs."""
+"""``descent-fmus land``: S3 lunar landing -- shooting solve, figures, closed loops via FMUs."""
 from __future__ import annotations
 
 import math

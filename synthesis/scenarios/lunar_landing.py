@@ -15,16 +15,14 @@ dymos ``examples/moon_landing`` (OpenMDAO/dymos) for the second problem.
 """
 from __future__ import annotations
 
-import math
-
 from models.lunar_lander import LanderParams, optimal_landing, rhs as lander_rhs
 from synthesis.cosim import Wiring
 from synthesis.scenarios import ClosedLoopSpec, register
 from synthesis.shooting import BangBang, PontryaginProblem
 
 __all__ = ["landing_problem", "paper_guess", "moon_landing_problem", "MOON", "PAPER_GUESSES",
-           "PAPER_TABLE2", "moon_guess", "PAPER_ITERATIONS", "PROGRAM_WIRING", "FEEDBACK_WIRING", "STEP",
-           "STOP_TIME"]
+           "PAPER_TABLE2", "PAPER_ITERATIONS", "PAPER_INITIAL_NORMS", "moon_guess",
+           "PROGRAM_WIRING", "FEEDBACK_WIRING", "STEP", "STOP_TIME"]
 
 #: Table 1 of seed 002: starting guesses (psi1(0), psi3(0), T) ...
 PAPER_GUESSES = ((-0.15, -0.7, 15.0), (-0.10, -0.7954, 10.0), (-0.30, -0.0810, 20.0))
