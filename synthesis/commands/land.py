@@ -132,6 +132,11 @@ def run(args) -> int:
     return 0
 
 
+def _json_float(v):
+    """A float for JSON: None instead of NaN/inf (e.g. no touchdown before t+)."""
+    return v if math.isfinite(v) else None
+
+
 def _closed_loops(args, p, summary, lines):
     from synthesis.cosim import FMUError, FMUNotFoundError
     from synthesis.landing import LandingLoops, dispersion, dispersion_table, plot_dispersion
@@ -145,8 +150,10 @@ def _closed_loops(args, p, summary, lines):
             flights = {}
             for law in ("program", "feedback"):
                 td, _ = loops.fly(law)
-                flights[law] = dict(touched_down=td.touched_down, V_touchdown=td.V_touchdown,
-                                    t_touchdown=td.t_touchdown, fuel=td.fuel, soft=td.soft)
+                flights[law] = dict(touched_down=td.touched_down,
+                                    V_touchdown=_json_float(td.V_touchdown),
+                                    t_touchdown=_json_float(td.t_touchdown), fuel=td.fuel,
+                                    soft=td.soft)
                 lines.append(f"  {law} closed loop (FMUs): touchdown at t = "
                              f"{td.t_touchdown:.4f} s, V = {td.V_touchdown:+.4f} m/s, "
                              f"fuel {td.fuel:.2f} kg" if td.touched_down else
@@ -155,6 +162,9 @@ def _closed_loops(args, p, summary, lines):
             if args.dispersion:
                 rows = dispersion(loops, n=args.dispersion, seed=args.seed)
                 text, disp = dispersion_table(rows)
+                for s in disp.values():
+                    s["worst_speed"] = _json_float(s["worst_speed"])
+                    s["median_speed"] = _json_float(s["median_speed"])
                 summary["dispersion"] = disp
                 lines.append(f"  dispersion (seed {args.seed}):")
                 lines.extend("    " + ln for ln in text.splitlines())
