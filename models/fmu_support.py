@@ -24,6 +24,8 @@ from collections import OrderedDict
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Initial
 
+from models.pythonfmu_compat import GUARDED_METHODS, keep_refs_on_error
+
 __all__ = ["ParameterError", "SlaveBase", "require_finite", "require_positive"]
 
 
@@ -230,6 +232,14 @@ class SlaveBase(Fmi2Slave):
         for name, value in values.items():
             by_name[name].setter(value)
 
+    def __init_subclass__(cls, **kwargs):
+        # pythonfmu 0.7 crashes the host after a callback raised unless the references are
+        # balanced (models/pythonfmu_compat.py): guard every callback of every FMU class.
+        super().__init_subclass__(**kwargs)
+        for name in GUARDED_METHODS:
+            if name in cls.__dict__:
+                setattr(cls, name, keep_refs_on_error(cls.__dict__[name]))
+
     # -- life cycle -------------------------------------------------------------------------
     def check_parameters(self) -> None:
         """Validate parameters; raise :class:`ParameterError` with an actionable message."""
@@ -237,6 +247,7 @@ class SlaveBase(Fmi2Slave):
     def prepare(self) -> None:
         """Derive run constants and the initial state from the (validated) parameters."""
 
+    @keep_refs_on_error
     def exit_initialization_mode(self) -> None:
         try:
             self.check_parameters()

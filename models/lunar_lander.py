@@ -36,7 +36,6 @@ from dataclasses import dataclass, fields, replace
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
 from models.integrators import locate_crossing, rk4_step_with_k1
-from models.pythonfmu_compat import keep_refs_on_error
 
 __all__ = ["LanderParams", "InfeasibleLandingError", "rhs", "constant_flow_state",
            "stopping_time", "switch_height", "optimal_landing", "OptimalLanding",
@@ -426,10 +425,6 @@ class LunarLander(SlaveBase):
 
     def prepare(self) -> None:
         self._fi = LanderIntegrator(self._params(), self.dt, self.m_dry, self.h_contact)
-
-    @keep_refs_on_error
-    def exit_initialization_mode(self) -> None:
-        super().exit_initialization_mode()
 
     def enter_initialization_mode(self):
         # the start values are set by now: outputs read during initialisation (a container FMU

@@ -39,7 +39,6 @@ from dataclasses import dataclass, fields, replace
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
 from models.integrators import locate_crossing, rk4_step_with_k1
-from models.pythonfmu_compat import keep_refs_on_error
 
 __all__ = ["MarsParams", "descent", "precession", "rhs", "observe", "initial_state",
            "Flight", "simulate", "MarsCapsule", "DT_INTEGRATION", "STEP", "T_MAX"]
@@ -405,10 +404,6 @@ class MarsCapsule(SlaveBase):
         except ParameterError:
             # invalid start values: keep a default plant until exit_initialization_mode reports
             self._fl = self.make_flight(MarsParams())
-
-    @keep_refs_on_error
-    def exit_initialization_mode(self) -> None:
-        super().exit_initialization_mode()
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         u = self.u if math.isfinite(self.u) else 0.0

@@ -18,7 +18,11 @@ from __future__ import annotations
 import ctypes
 import functools
 
-__all__ = ["keep_refs_on_error"]
+__all__ = ["keep_refs_on_error", "GUARDED_METHODS"]
+
+#: Slave methods that pythonfmu calls from C++ and that may raise (SlaveBase wraps them all).
+GUARDED_METHODS = ("setup_experiment", "enter_initialization_mode", "exit_initialization_mode",
+                   "do_step", "terminate", "reset")
 
 _incref = ctypes.pythonapi.Py_IncRef
 _incref.argtypes = [ctypes.py_object]
@@ -32,9 +36,15 @@ def keep_refs_on_error(method):
     def wrapper(self, *args, **kwargs):
         try:
             return method(self, *args, **kwargs)
-        except BaseException:
-            for obj in (type(self), self, self._get_log_queue()):
-                _incref(obj)
+        except BaseException as exc:
+            # once per exception, also when nested wrapped methods (super() calls) re-raise it
+            if not getattr(exc, "_descent_refs_kept", False):
+                for obj in (type(self), self, self._get_log_queue()):
+                    _incref(obj)
+                try:
+                    exc._descent_refs_kept = True
+                except AttributeError:
+                    pass
             raise
 
     return wrapper

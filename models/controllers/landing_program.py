@@ -17,7 +17,6 @@ import math
 
 from models.fmu_support import ParameterError, SlaveBase, require_positive
 from models.lunar_lander import LanderParams, optimal_landing
-from models.pythonfmu_compat import keep_refs_on_error
 
 __all__ = ["program_flow", "LandingProgram"]
 
@@ -69,10 +68,6 @@ class LandingProgram(SlaveBase):
     def prepare(self) -> None:
         self._t = 0.0
         self._h = self.step
-
-    @keep_refs_on_error
-    def exit_initialization_mode(self) -> None:
-        super().exit_initialization_mode()
 
     def setup_experiment(self, start_time: float, stop_time=None, tolerance=None):
         self._t = float(start_time)

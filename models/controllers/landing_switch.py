@@ -29,7 +29,6 @@ from __future__ import annotations
 import math
 
 from models.fmu_support import ParameterError, SlaveBase, require_positive
-from models.pythonfmu_compat import keep_refs_on_error
 from models.lunar_lander import (InfeasibleLandingError, LanderParams, constant_flow_state,
                                  solve_increasing, switch_height)
 
@@ -149,10 +148,6 @@ class LandingSwitch(SlaveBase):
         setattr(self, name, value)
         self._dirty = True
         self._measured = True
-
-    @keep_refs_on_error
-    def exit_initialization_mode(self) -> None:
-        super().exit_initialization_mode()
 
     def enter_initialization_mode(self):
         # parameters are set by now: build the law so outputs read during initialisation

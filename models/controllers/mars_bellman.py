@@ -33,7 +33,6 @@ from __future__ import annotations
 import math
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.pythonfmu_compat import keep_refs_on_error
 
 __all__ = ["CONSISTENT", "PAPER", "consistent_gain", "paper_gain", "gain", "control",
            "bellman_residual", "MarsBellmanController", "B", "C", "U_MAX", "THETA1"]
@@ -168,10 +167,6 @@ class MarsBellmanController(SlaveBase):
 
     def prepare(self) -> None:
         self._cache = None
-
-    @keep_refs_on_error
-    def exit_initialization_mode(self) -> None:
-        super().exit_initialization_mode()
 
     def _outputs(self):
         if self._cache is None:
