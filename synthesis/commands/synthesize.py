@@ -19,13 +19,14 @@ def register(sub) -> None:
     p = sub.add_parser("synthesize", help="network-operator synthesis by the variational GA "
                        "(closed-loop FMU co-simulation as the evaluator)")
     p.add_argument("problem", help="synthesis problem (reentry, ...)")
-    p.add_argument("--population", type=int, default=DEFAULTS["population"])
-    p.add_argument("--generations", type=int, default=DEFAULTS["generations"])
-    p.add_argument("--crossovers", type=int, default=DEFAULTS["crossovers"],
+    # default None: the problem's own budget (SynthesisProblem.defaults["ga"]), else DEFAULTS
+    p.add_argument("--population", type=int, default=None)
+    p.add_argument("--generations", type=int, default=None)
+    p.add_argument("--crossovers", type=int, default=None,
                    help="crossover attempts per generation (4 children each)")
-    p.add_argument("--lchr", type=int, default=DEFAULTS["lchr"],
-                   help="variations per individual")
-    p.add_argument("--epoch", type=int, default=DEFAULTS["epoch"],
+    p.add_argument("--lchr", type=int, default=None,
+                   help="variations per individual (0 = parameter search of the basic law)")
+    p.add_argument("--epoch", type=int, default=None,
                    help="generations between changes of the basic solution")
     p.add_argument("--wide-ops", action="store_true",
                    help="let variations use the authors' wider operation set (28 unary, 4 binary)")
@@ -76,7 +77,11 @@ def run_synthesize(args) -> int:
     from synthesis.synthesize import RunDirError, run_synthesis
 
     try:
-        get_problem(args.problem)
+        problem = get_problem(args.problem)
+        budget = dict(DEFAULTS, **problem.defaults.get("ga", {}))
+        for key in DEFAULTS:
+            if getattr(args, key) is None:
+                setattr(args, key, budget[key])
         config = GAConfig(population=args.population, crossovers=args.crossovers,
                           lchr=args.lchr, epoch=args.epoch)
     except (KeyError, ValueError) as exc:

@@ -42,3 +42,4 @@ def load_all():
     from synthesis.scenarios import telescope  # noqa: F401
     from synthesis.scenarios import mars  # noqa: F401
     from synthesis.scenarios import lunar_landing  # noqa: F401
+    from synthesis.scenarios import lunar_descent  # noqa: F401

@@ -1,0 +1,340 @@
+"""S5 -- descent from lunar orbit into a terminal box (braking phase), two controls.
+
+State ``x = (V, theta, h, phi, m)``: speed V [m/s], angle theta [rad] of the velocity from the
+local upward vertical (pi/2 = horizontal, dh/dt = V cos theta), altitude h [m], range angle phi
+[rad], mass m [kg].  Controls: ``u1`` [rad] thrust direction from the same vertical (pure braking
+is ``u1 = theta + pi``), ``u2`` [kgf] change of the thrust.
+
+    dV/dt     = W cos(u1 - theta) - g cos theta
+    dtheta/dt = (W sin(u1 - theta) + g sin theta) / V
+    dh/dt     = V cos theta
+    dphi/dt   = V sin theta / R
+    dm/dt     = -k_P (P0 + u2) / P_ud
+
+with ``W = g~ k_P (P0 + u2) / m``, ``g = g0 (R0 / (R0 + h))^2``, ``R = R0 + h``; ``k_P`` is the
+thrust factor of the dispersion study (1 nominal; a thrust error at fixed specific impulse
+changes the mass flow by the same factor).
+
+The flight ends at the first time V is in [Vf-, Vf+] and h in [hf-, hf+] (the terminal box),
+at a crash (h = 0), when the model leaves its domain (V < V_STALL, where theta is undefined, or
+m <= 0), or at t+.  Every end is located inside the RK4 sub-step.
+
+This module holds the only definition of these equations: the :class:`LunarDescent` FMU and
+the in-process code (tests, the feasibility scan) use the same functions.
+
+References
+----------
+Seed 004: A.I. Diveev et al., "Синтез управления спуском космического аппарата на
+поверхность Луны методом сетевого оператора", Vestnik MGTU im. Baumana, ser.
+Priborostroenie, 2013, no. 4,
+eqs. (1)-(6); scenario numbers: SPEC S5 [choice].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
+from models.integrators import locate_crossing, rk4_step_with_k1
+
+__all__ = ["DescentParams", "rhs", "box_distance", "controller_inputs", "DescentIntegrator",
+           "simulate", "LunarDescent", "U1_BOUNDS", "U2_BOUNDS", "T_PLUS", "G_TILDE",
+           "V_STALL", "FLYING", "IN_BOX", "CRASHED", "OUT_OF_DOMAIN"]
+
+#: Thrust-direction bounds [rad] (SPEC S5: from straight down to straight up).
+U1_BOUNDS = (math.pi, 2.0 * math.pi)
+#: Thrust-change bounds [kgf] (SPEC S5).
+U2_BOUNDS = (-40.0, 40.0)
+#: Final time t+ [s] (SPEC S5).
+T_PLUS = 600.0
+#: Standard gravity g~ converting kgf to N [m/s^2] (seed 004, eq. 6).
+G_TILDE = 9.80665
+#: Speed below which the flight leaves the model's domain [m/s]: dtheta/dt has V in the
+#: denominator, so the angle is undefined at V = 0 ([choice], models/README.md).
+V_STALL = 1.0
+#: Default RK4 sub-step [s] (accuracy: models/README.md, tests/test_lunar_descent.py).
+DT_INTEGRATION = 1.0
+
+#: Values of the Integer output ``stop``.
+FLYING, IN_BOX, CRASHED, OUT_OF_DOMAIN = 0, 1, 2, 3
+
+
+@dataclass(frozen=True)
+class DescentParams:
+    """Parameters of the S5 plant (SI units; thrust in kgf as in the seed), defaults = the
+    default scenario of SPEC S5 with theta0 = 90 deg and h0 = 18 km (the centre of the set)."""
+
+    P0: float = 440.0                #: nominal thrust [kgf]
+    P_ud: float = 319.0              #: specific impulse [s]
+    k_P: float = 1.0                 #: thrust factor (dispersion study) [-]
+    g0: float = 1.623                #: lunar surface gravity [m/s^2]
+    R0: float = 1_738_400.0          #: mean lunar radius [m]
+    m0: float = 1400.0               #: initial mass [kg]                 ([choice], SPEC S5)
+    V0: float = 1690.0               #: initial speed [m/s]               ([choice], SPEC S5)
+    theta0: float = math.pi / 2      #: initial angle from the vertical [rad]
+    h0: float = 18_000.0             #: initial altitude [m]
+    phi0: float = 0.0                #: initial range angle [rad]
+    V_lo: float = 40.0               #: terminal box, lower speed Vf- [m/s]
+    V_hi: float = 60.0               #: terminal box, upper speed Vf+ [m/s]
+    h_lo: float = 1500.0             #: terminal box, lower altitude hf- [m]
+    h_hi: float = 2500.0             #: terminal box, upper altitude hf+ [m]
+
+    @property
+    def Vf(self) -> float:
+        """Target speed of J2: the centre of the box [m/s]."""
+        return 0.5 * (self.V_lo + self.V_hi)
+
+    @property
+    def hf(self) -> float:
+        """Target altitude of J1: the centre of the box [m]."""
+        return 0.5 * (self.h_lo + self.h_hi)
+
+    def validate(self) -> "DescentParams":
+        """Raise :class:`ParameterError` naming the first invalid parameter."""
+        for f in fields(self):
+            require_finite(f.name, getattr(self, f.name))
+        for name in ("P0", "P_ud", "k_P", "g0", "R0", "m0", "V0", "h0"):
+            require_positive(name, getattr(self, name))
+        if self.P0 + U2_BOUNDS[0] <= 0.0:
+            raise ParameterError(f"parameter P0 must exceed {-U2_BOUNDS[0]} kgf (the thrust "
+                                 f"change reaches {U2_BOUNDS[0]} kgf), got {self.P0}")
+        if not 0.0 <= self.theta0 <= math.pi:
+            raise ParameterError(f"parameter theta0 must be in [0, pi] rad, got {self.theta0}")
+        if not V_STALL < self.V_lo < self.V_hi:
+            raise ParameterError(f"need {V_STALL} < V_lo < V_hi [m/s], got V_lo={self.V_lo}, "
+                                 f"V_hi={self.V_hi}")
+        if not 0.0 <= self.h_lo < self.h_hi:
+            raise ParameterError(f"need 0 <= h_lo < h_hi [m], got h_lo={self.h_lo}, "
+                                 f"h_hi={self.h_hi}")
+        if self.V_lo <= self.V0 <= self.V_hi and self.h_lo <= self.h0 <= self.h_hi:
+            raise ParameterError("the initial state (V0, h0) lies inside the terminal box; "
+                                 "there is nothing to fly")
+        return self
+
+    def constants(self) -> tuple:
+        """The argument tuple of :func:`rhs` after the controls: (g~ k_P, k_P / P_ud, P0, g0,
+        R0)."""
+        return (G_TILDE * self.k_P, self.k_P / self.P_ud, self.P0, self.g0, self.R0)
+
+    def initial_state(self) -> tuple:
+        return (self.V0, self.theta0, self.h0, self.phi0, self.m0)
+
+    def with_(self, **changes) -> "DescentParams":
+        return replace(self, **changes)
+
+
+def rhs(x, u1, u2, gk, fk, P0, g0, R0):
+    """Right-hand side of seed 004 eqs. (1)-(6).
+
+    Parameters
+    ----------
+    x : tuple of 5 float
+        (V [m/s], theta [rad], h [m], phi [rad], m [kg]).
+    u1 : float
+        Thrust direction from the upward vertical [rad].
+    u2 : float
+        Thrust change [kgf].
+    gk, fk, P0, g0, R0 : float
+        ``g~ k_P`` [m/s^2], ``k_P / P_ud`` [1/s], ``P0`` [kgf], ``g0`` [m/s^2], ``R0`` [m]
+        (:meth:`DescentParams.constants`).
+    """
+    V, th, h, _, m = x
+    P = P0 + u2
+    W = gk * P / m
+    R = R0 + h
+    g = g0 * (R0 / R) ** 2
+    s, c = math.sin(th), math.cos(th)
+    a = u1 - th
+    return (W * math.cos(a) - g * c, (W * math.sin(a) + g * s) / V, V * c, V * s / R, -fk * P)
+
+
+def box_distance(x, p: DescentParams) -> float:
+    """max(V - Vf+, Vf- - V, h - hf+, hf- - h) with h in km-equivalents of V: <= 0 inside.
+
+    The altitude terms are divided by 50 (1 km of altitude weighs as 20 m/s) only to keep the
+    event function well scaled; the box itself is exact.
+    """
+    V, h = x[0], x[2]
+    return max(V - p.V_hi, p.V_lo - V, (h - p.h_hi) / 50.0, (p.h_lo - h) / 50.0)
+
+
+#: Scales of the controller inputs ([choice], models/README.md).
+H_SCALE = 10_000.0    # [m]
+V_SCALE = 1000.0      # [m/s]
+
+
+def controller_inputs(x, p: DescentParams) -> tuple:
+    """The inputs the control law reads (plant outputs ``y1..y4``) [choice].
+
+    y1 = theta [rad] (so that u1 = y1 + pi + tilt is pure braking plus a tilt);
+    y2 = (h - hf) / 10 km; y3 = (V - Vf) / 1000 m/s; y4 = (dh/dt) / 100 m/s = V cos theta / 100.
+    """
+    V, th, h = x[0], x[1], x[2]
+    return (th, (h - p.hf) / H_SCALE, (V - p.Vf) / V_SCALE, V * math.cos(th) / 100.0)
+
+
+class DescentIntegrator:
+    """Advance the S5 plant with RK4 sub-steps; locate the box entry, a crash or a stall.
+
+    The one integrator of the plant: the :class:`LunarDescent` FMU owns one, and in-process code
+    (:func:`simulate`) uses the same class.  After the flight ends the state is frozen.
+    """
+
+    def __init__(self, p: DescentParams, dt: float = DT_INTEGRATION):
+        self.p = p.validate()
+        if not (math.isfinite(dt) and dt > 0.0):
+            raise ParameterError(f"integration step dt must be > 0, got {dt!r}")
+        self.dt = dt
+        self.args = p.constants()
+        self.reset()
+
+    def reset(self):
+        self.t = 0.0
+        self.x = self.p.initial_state()
+        self.stop = FLYING
+        self.t_end = math.nan
+        self.h_min = self.x[2]
+
+    def _events(self, x):
+        """(event code, value) pairs; an event happens where its value becomes <= 0."""
+        return ((CRASHED, x[2]), (OUT_OF_DOMAIN, min(x[0] - V_STALL, x[4])),
+                (IN_BOX, box_distance(x, self.p)))
+
+    def advance(self, t_end: float, u1: float, u2: float) -> None:
+        """Integrate from ``self.t`` to ``t_end`` with the controls held at (u1, u2)."""
+        if self.stop:
+            return
+        span = t_end - self.t
+        if span <= 0.0:
+            return
+        n = max(1, math.ceil(span / self.dt - 1e-9))
+        h = span / n
+        args = (u1, u2) + self.args
+        x, t0 = self.x, self.t
+        for i in range(n):
+            k1 = rhs(x, *args)
+            xn = rk4_step_with_k1(rhs, x, k1, h, args)
+            if not all(math.isfinite(v) for v in xn):
+                self.x, self.t, self.stop = x, t0 + i * h, OUT_OF_DOMAIN
+                self.t_end = self.t
+                return
+            hit = None
+            for code, gn in self._events(xn):
+                if gn <= 0.0:
+                    g = lambda y, c=code: dict(self._events(y))[c]  # noqa: E731
+                    s, xs = locate_crossing(rhs, x, k1, h, args, g, g(x), gn)
+                    if hit is None or s < hit[0]:
+                        hit = (s, xs, code)
+            if hit is not None:
+                s, xs, code = hit
+                self.x, self.t, self.stop = xs, t0 + (i + s) * h, code
+                self.t_end = self.t
+                self.h_min = min(self.h_min, xs[2])
+                return
+            if xn[2] < self.h_min:
+                self.h_min = xn[2]
+            x = xn
+        self.x, self.t = x, t_end
+
+
+def simulate(p: DescentParams = DescentParams(), control=lambda t, x: (1.5 * math.pi, 0.0),
+             step: float = 1.0, t_plus: float = T_PLUS, dt: float = DT_INTEGRATION,
+             trace: list | None = None) -> DescentIntegrator:
+    """Fly S5 in-process with ``(u1, u2) = control(t, x)`` held over communication steps.
+
+    Controls are clipped to :data:`U1_BOUNDS` and :data:`U2_BOUNDS` as in the FMU.  If
+    ``trace`` is a list, ``(t, V, theta, h, phi, m, u1, u2)`` is appended at every step.
+    Returns the finished :class:`DescentIntegrator` (``stop``, ``t_end``, ``x``, ``h_min``).
+    """
+    fi = DescentIntegrator(p, dt)
+    k = 0
+    while not fi.stop and fi.t < t_plus - 1e-9:
+        u1, u2 = control(fi.t, fi.x)
+        u1 = min(max(u1, U1_BOUNDS[0]), U1_BOUNDS[1])
+        u2 = min(max(u2, U2_BOUNDS[0]), U2_BOUNDS[1])
+        if trace is not None:
+            trace.append((fi.t,) + tuple(fi.x) + (u1, u2))
+        k += 1
+        fi.advance(min(k * step, t_plus), u1, u2)
+    if trace is not None:
+        trace.append((fi.t,) + tuple(fi.x) + (math.nan, math.nan))
+    return fi
+
+
+class LunarDescent(SlaveBase):
+    """FMU of the S5 plant: inputs ``u1``, ``u2``; outputs the state, the controller inputs
+    ``y1..y4``, fuel used, minimum altitude and the Integer ``stop`` flag."""
+
+    description = ("S5 descent from lunar orbit into a terminal box (V, theta, h, phi, m; thrust "
+                   "direction u1 and thrust change u2); seed 004, Diveev et al. 2013")
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        d = DescentParams()
+        for name, desc in [("P0", "nominal thrust [kgf]"), ("P_ud", "specific impulse [s]"),
+                           ("k_P", "thrust factor (dispersion; scales thrust and mass flow) [1]"),
+                           ("g0", "lunar surface gravity [m/s2]"),
+                           ("R0", "mean lunar radius [m]"), ("m0", "initial mass [kg]"),
+                           ("V0", "initial speed [m/s]"),
+                           ("theta0", "initial angle of the velocity from the upward vertical "
+                            "[rad]"),
+                           ("h0", "initial altitude [m]"), ("phi0", "initial range angle [rad]"),
+                           ("V_lo", "terminal box: lower speed [m/s]"),
+                           ("V_hi", "terminal box: upper speed [m/s]"),
+                           ("h_lo", "terminal box: lower altitude [m]"),
+                           ("h_hi", "terminal box: upper altitude [m]")]:
+            self.parameter(name, getattr(d, name), desc)
+        self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
+        self.input("u1", 1.5 * math.pi, "thrust direction from the upward vertical, clipped to "
+                   "[pi, 2 pi] [rad]")
+        self.input("u2", 0.0, "thrust change, clipped to [-40, 40] [kgf]")
+        for name, desc in [("V", "speed [m/s]"),
+                           ("theta", "angle of the velocity from the upward vertical [rad]"),
+                           ("h", "altitude [m]"), ("phi", "range angle [rad]"),
+                           ("m", "mass [kg]"), ("fuel", "propellant used m0 - m [kg]"),
+                           ("h_min", "minimum altitude so far [m]"),
+                           ("y1", "controller input: theta [rad]"),
+                           ("y2", "controller input: (h - hf) / 10 km [1]"),
+                           ("y3", "controller input: (V - Vf) / 1000 m/s [1]"),
+                           ("y4", "controller input: dh/dt / 100 m/s [1]")]:
+            self.output(name, desc)
+        self.output("t_end", "time the flight ended (box, crash, stall), -1 before [s]",
+                    start=-1.0)
+        self.output("end", "the stop flag as a Real (hosts and the evaluator read Reals) [1]")
+        self.int_output("stop", "0 flying, 1 in the terminal box, 2 crashed (h = 0), 3 left "
+                        "the model's domain (V < 1 m/s, m <= 0, non-finite) [1]")
+        self.apply_resource_defaults()
+        self.prepare()
+
+    def _params(self) -> DescentParams:
+        return DescentParams(**{f.name: getattr(self, f.name) for f in fields(DescentParams)})
+
+    def check_parameters(self) -> None:
+        self._params().validate()
+        require_positive("dt", self.dt)
+
+    def prepare(self) -> None:
+        self._fi = DescentIntegrator(self._params(), self.dt)
+        self._publish()
+
+    def _publish(self) -> None:
+        fi = self._fi
+        x = fi.x
+        self.V, self.theta, self.h, self.phi, self.m = x
+        self.fuel = fi.p.m0 - x[4]
+        self.h_min = fi.h_min
+        self.y1, self.y2, self.y3, self.y4 = controller_inputs(x, fi.p)
+        self.t_end = fi.t_end if fi.stop else -1.0
+        self.stop = fi.stop
+        self.end = float(fi.stop)
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        u1, u2 = self.u1, self.u2
+        if not math.isfinite(u1):
+            u1 = 1.5 * math.pi      # a non-finite command: horizontal thrust, logged by nobody
+        if not math.isfinite(u2):
+            u2 = 0.0
+        self._fi.advance(current_time + step_size, min(max(u1, U1_BOUNDS[0]), U1_BOUNDS[1]),
+                         min(max(u2, U2_BOUNDS[0]), U2_BOUNDS[1]))
+        self._publish()
+        return True
