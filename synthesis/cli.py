@@ -20,6 +20,7 @@ COMMAND_MODULES = [
     "synthesis.commands.mars",
     "synthesis.commands.land",
     "synthesis.commands.synthesize",
+    "synthesis.commands.lunar_descent",
 ]
 
 
