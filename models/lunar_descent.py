@@ -317,6 +317,16 @@ class LunarDescent(SlaveBase):
         self._fi = DescentIntegrator(self._params(), self.dt)
         self._publish()
 
+    def enter_initialization_mode(self):
+        # the start values are set by now: outputs read during initialisation (a container FMU
+        # propagates its connections then, before exit) must show them; invalid values are
+        # reported at exit
+        try:
+            self.check_parameters()
+        except ParameterError:
+            return
+        self.prepare()
+
     def _publish(self) -> None:
         fi = self._fi
         x = fi.x

@@ -69,8 +69,11 @@ def run_synthesis(problem_name: str, out: Path, fmu_dir: Path, config: GAConfig,
                   generations: int, seed: int = 1, workers: int = 1,
                   scheduler: str | None = None, resume: bool = False, wide_ops: bool = False,
                   progress: bool = True, export: bool = True, stop_after: int | None = None,
-                  reference_j1: float | None = None) -> dict:
+                  reference_j1: float | None = None, polish: int = 8) -> dict:
     """Run (or resume) a synthesis; return the summary dict (also written to DIR).
+
+    ``polish`` laws of the final front get a local refinement of their parameters
+    (:meth:`VariationalGA.polish`); 0 switches it off.
 
     ``stop_after`` ends the process after that many generations of this call (used by the
     checkpoint tests to simulate an interruption).
@@ -133,6 +136,11 @@ def run_synthesis(problem_name: str, out: Path, fmu_dir: Path, config: GAConfig,
         if not ga.pop:
             remaining = generations
         ga.run(lambda cands: evaluator.evaluate(cands)[0], remaining, callback)
+        if polish and not ga.polished:
+            if bar is not None:
+                bar.set_description(f"polish {problem.name}")
+            ga.polish(lambda cands: evaluator.evaluate(cands)[0], members=polish)
+            _write_json(ckpt, ga.state())
     except _Interrupt:
         evaluator.close()
         if bar is not None:
@@ -170,7 +178,13 @@ def export_law(problem: SynthesisProblem, law: NetworkOperator, fmu_dir: Path, d
                          description=(description or "network-operator law") + ": "
                          + law.formula(6))
     wl = replace(w, description=(description or w.description) + "; law " + law.formula(6))
-    cl = closed_loop_fmu(wl, Path(fmu_dir) / problem.plant_fmu, ctrl, dest / f"{w.name}.fmu")
+    # the plant parameters the registered closed loop exposes (initial state, ...) stay settable,
+    # so a law of a problem with several initial states can be flown from each of them
+    from synthesis import scenarios
+    spec = scenarios.CLOSED_LOOPS.get(w.name)
+    plant_params = tuple(p for p in spec.parameters if p[1] == "plant") if spec else ()
+    cl = closed_loop_fmu(wl, Path(fmu_dir) / problem.plant_fmu, ctrl, dest / f"{w.name}.fmu",
+                         parameters=plant_params)
     ssp = write_ssp(wl, Path(fmu_dir) / problem.plant_fmu, ctrl, dest / f"{w.name}.ssp")
     return {"controller_fmu": str(ctrl), "closed_loop_fmu": str(cl), "ssp": str(ssp)}
 
