@@ -34,8 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from models.fmu_support import ParameterError, require_finite
-from models.telescope import (AttitudeIntegrator, Telescope, TelescopeParams, quat_to_matrix,
-                              gyro_momentum)
+from models.telescope import (AttitudeIntegrator, Telescope, TelescopeParams, gyro_momentum,
+                              gyro_sums, quat_to_matrix, quaternion_rate)
 
 __all__ = ["PanelParams", "make_flexible_rhs", "flexible_inertial_momentum", "FlexibleTelescope",
            "N_MODES", "flexible_initial_state"]
@@ -101,24 +101,11 @@ def make_flexible_rhs(p: TelescopeParams, pp: PanelParams):
     stiff = [o * o for o in om]
     ha, hb = p.gyro_matrices()
     gy = [(tuple(float(v) for v in a), tuple(float(v) for v in b)) for a, b in zip(ha, hb)]
-    cos, sin = math.cos, math.sin
     modes = list(zip(Dl, damp, stiff))
 
     def rhs(x, u):
         l0, l1, l2, l3, w1, w2, w3 = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
-        k1 = k2 = k3 = d1 = d2 = d3 = 0.0
-        j = 0
-        for (a, b) in gy:
-            bj = x[7 + j]
-            c, s = cos(bj), sin(bj)
-            k1 += a[0] * c + b[0] * s
-            k2 += a[1] * c + b[1] * s
-            k3 += a[2] * c + b[2] * s
-            uj = u[j]
-            d1 += (b[0] * c - a[0] * s) * uj
-            d2 += (b[1] * c - a[1] * s) * uj
-            d3 += (b[2] * c - a[2] * s) * uj
-            j += 1
+        k1, k2, k3, d1, d2, d3 = gyro_sums(x, u, gy)
         # modal momentum D^T deta and modal forces r2 = -2 zeta Omega deta - Omega^2 eta
         p1 = p2 = p3 = 0.0
         s1 = s2 = s3 = 0.0
@@ -146,10 +133,7 @@ def make_flexible_rhs(p: TelescopeParams, pp: PanelParams):
         a3 = c31 * r1 + c32 * r2_ + c33 * r3
         eta_dd = tuple(f - (dv[0] * a1 + dv[1] * a2 + dv[2] * a3)
                        for f, (dv, _, _) in zip(r2, modes))
-        return (0.5 * (-w1 * l1 - w2 * l2 - w3 * l3),
-                0.5 * (w1 * l0 + w3 * l2 - w2 * l3),
-                0.5 * (w2 * l0 - w3 * l1 + w1 * l3),
-                0.5 * (w3 * l0 + w2 * l1 - w1 * l2),
+        return quaternion_rate(l0, l1, l2, l3, w1, w2, w3) + (
                 a1, a2, a3,
                 u[0], u[1], u[2], u[3], u[4], u[5],
                 x[17], x[18], x[19], x[20]) + eta_dd

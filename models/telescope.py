@@ -132,6 +132,37 @@ class TelescopeParams:
         return self.h * np.array(a), self.h * np.array(b)
 
 
+def gyro_sums(x, u, gy, cos=math.cos, sin=math.sin):
+    """Rotor momentum k and its rate k-dot of the six gyrodynes, on plain floats.
+
+    ``x[7:13]`` are the gimbal angles beta_j [rad], ``u`` the gimbal rates [rad/s], ``gy`` the
+    pairs (h a_j, h b_j) [N m s]: k = sum h (a_j cos b_j + b_j sin b_j),
+    k-dot = sum h (-a_j sin b_j + b_j cos b_j) u_j.  Returns (k1, k2, k3, kd1, kd2, kd3).
+    """
+    k1 = k2 = k3 = d1 = d2 = d3 = 0.0
+    j = 0
+    for (a, b) in gy:
+        bj = x[7 + j]
+        c, s = cos(bj), sin(bj)
+        k1 += a[0] * c + b[0] * s
+        k2 += a[1] * c + b[1] * s
+        k3 += a[2] * c + b[2] * s
+        uj = u[j]
+        d1 += (b[0] * c - a[0] * s) * uj
+        d2 += (b[1] * c - a[1] * s) * uj
+        d3 += (b[2] * c - a[2] * s) * uj
+        j += 1
+    return k1, k2, k3, d1, d2, d3
+
+
+def quaternion_rate(l0, l1, l2, l3, w1, w2, w3):
+    """d(lambda)/dt = 1/2 A(omega) lambda (SPEC S4), on plain floats."""
+    return (0.5 * (-w1 * l1 - w2 * l2 - w3 * l3),
+            0.5 * (w1 * l0 + w3 * l2 - w2 * l3),
+            0.5 * (w2 * l0 - w3 * l1 + w1 * l3),
+            0.5 * (w3 * l0 + w2 * l1 - w1 * l2))
+
+
 def make_rigid_rhs(p: TelescopeParams):
     """Return ``f(x, u)``: the S4 rigid gyrostat right-hand side on tuples (13 states, 6 controls).
 
@@ -145,33 +176,17 @@ def make_rigid_rhs(p: TelescopeParams):
     HA = [tuple(float(v) for v in r) for r in ha]
     HB = [tuple(float(v) for v in r) for r in hb]
     gy = list(zip(HA, HB))
-    cos, sin = math.cos, math.sin
 
     def rhs(x, u):
         l0, l1, l2, l3, w1, w2, w3 = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
-        k1 = k2 = k3 = d1 = d2 = d3 = 0.0
-        j = 0
-        for (a, b) in gy:
-            bj = x[7 + j]
-            c, s = cos(bj), sin(bj)
-            k1 += a[0] * c + b[0] * s
-            k2 += a[1] * c + b[1] * s
-            k3 += a[2] * c + b[2] * s
-            uj = u[j]
-            d1 += (b[0] * c - a[0] * s) * uj
-            d2 += (b[1] * c - a[1] * s) * uj
-            d3 += (b[2] * c - a[2] * s) * uj
-            j += 1
+        k1, k2, k3, d1, d2, d3 = gyro_sums(x, u, gy)
         L1 = i11 * w1 + i12 * w2 + i13 * w3 + k1
         L2 = i21 * w1 + i22 * w2 + i23 * w3 + k2
         L3 = i31 * w1 + i32 * w2 + i33 * w3 + k3
         r1 = -(w2 * L3 - w3 * L2) - d1
         r2 = -(w3 * L1 - w1 * L3) - d2
         r3 = -(w1 * L2 - w2 * L1) - d3
-        return (0.5 * (-w1 * l1 - w2 * l2 - w3 * l3),
-                0.5 * (w1 * l0 + w3 * l2 - w2 * l3),
-                0.5 * (w2 * l0 - w3 * l1 + w1 * l3),
-                0.5 * (w3 * l0 + w2 * l1 - w1 * l2),
+        return quaternion_rate(l0, l1, l2, l3, w1, w2, w3) + (
                 j11 * r1 + j12 * r2 + j13 * r3,
                 j21 * r1 + j22 * r2 + j23 * r3,
                 j31 * r1 + j32 * r2 + j33 * r3,
