@@ -8,7 +8,13 @@ of descent-fmus this is several times faster than NumPy arrays (DESIGN.md, measu
 """
 from __future__ import annotations
 
-__all__ = ["rk4_step", "rk4_step_with_k1", "locate_crossing"]
+import math
+
+__all__ = ["rk4_step", "rk4_step_with_k1", "locate_crossing", "advance_to", "OK", "EVENT",
+           "DIVERGED"]
+
+#: outcomes of :func:`advance_to`
+OK, EVENT, DIVERGED = "ok", "event", "diverged"
 
 
 def rk4_step_with_k1(f, x, k1, h, args):
@@ -58,3 +64,46 @@ def locate_crossing(f, x0, k0, h, args, g, g0, g1, tol=1e-9, max_iter=30):
                 ga *= 0.5
             side = -1
     return s, xs
+
+
+def advance_to(f, x, t0: float, t_end: float, dt: float, args, event=None, on_step=None,
+               tol: float = 1e-9):
+    """Integrate ``x' = f(x, *args)`` from ``(t0, x)`` to ``t_end`` on RK4 sub-steps <= ``dt``.
+
+    The sub-steps divide ``[t0, t_end]`` evenly.  If ``event(x)`` (positive before the event)
+    reaches 0 inside a sub-step, the crossing is located with :func:`locate_crossing` and the
+    integration stops there.  ``on_step(x, k1)`` is called at the start of every sub-step with
+    the derivative ``k1 = f(x, *args)`` (e.g. to sample loads).  A non-finite state, or an
+    arithmetic error in ``f``, stops the integration at the last finite state.
+
+    This is the one stepping loop of every plant FMU of the project.
+
+    Returns
+    -------
+    (x, t, outcome) : tuple
+        The state and time reached; ``outcome`` is :data:`OK` (reached ``t_end``),
+        :data:`EVENT` (stopped at the event, ``t`` is its time) or :data:`DIVERGED`.
+    """
+    span = t_end - t0
+    if span <= 0.0:
+        return x, t0, OK
+    n = max(1, math.ceil(span / dt - 1e-9))
+    h = span / n
+    isfinite = math.isfinite
+    for i in range(n):
+        try:
+            k1 = f(x, *args)
+            if on_step is not None:
+                on_step(x, k1)
+            xn = rk4_step_with_k1(f, x, k1, h, args)
+        except (ArithmeticError, ValueError):
+            return x, t0 + i * h, DIVERGED
+        if not all(map(isfinite, xn)):
+            return x, t0 + i * h, DIVERGED
+        if event is not None:
+            g1 = event(xn)
+            if g1 <= 0.0:
+                s, xs = locate_crossing(f, x, k1, h, args, event, event(x), g1, tol=tol)
+                return xs, t0 + (i + s) * h, EVENT
+        x = xn
+    return x, t_end, OK

@@ -35,7 +35,7 @@ import math
 from dataclasses import dataclass, fields, replace
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.integrators import locate_crossing, rk4_step_with_k1
+from models.integrators import EVENT, advance_to
 
 __all__ = ["LanderParams", "InfeasibleLandingError", "rhs", "constant_flow_state",
            "stopping_time", "switch_height", "optimal_landing", "OptimalLanding",
@@ -356,26 +356,17 @@ class LanderIntegrator:
         u = min(max(u, 0.0), self.p.umax) if math.isfinite(u) else 0.0
         if self.x[2] - u * span < self.m_dry:
             u = 0.0
-        n = max(1, math.ceil(span / self.dt - 1e-9))
-        hstep = span / n
-        args = (u,) + self.args
-        x, t0 = self.x, self.t
         hc = self.h_contact
-        for i in range(n):
-            k1 = rhs(x, *args)
-            xn = rk4_step_with_k1(rhs, x, k1, hstep, args)
-            if xn[0] <= hc:
-                s, xn = locate_crossing(rhs, x, k1, hstep, args, lambda y: y[0] - hc, x[0] - hc,
-                                        xn[0] - hc, tol=1e-13)
-                self.x = (0.0, xn[1], xn[2])
-                self.t = t_end
-                self.t_touchdown = t0 + (i + s) * hstep
-                self.V_touchdown = xn[1]
-                self.touched_down = True
-                return
-            x = xn
-        self.x, self.t = x, t_end
-
+        x, t, outcome = advance_to(rhs, self.x, self.t, t_end, self.dt, (u,) + self.args,
+                                   event=lambda y: y[0] - hc, tol=1e-13)
+        if outcome == EVENT:
+            self.x = (0.0, x[1], x[2])
+            self.t_touchdown = t
+            self.V_touchdown = x[1]
+            self.touched_down = True
+        else:
+            self.x = x
+        self.t = t_end
 
 class LunarLander(SlaveBase):
     """FMU of the S3 plant: input fuel flow ``u``; outputs h, V, m, fuel, touchdown data."""

@@ -38,7 +38,7 @@ import math
 from dataclasses import dataclass, fields, replace
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.integrators import locate_crossing, rk4_step_with_k1
+from models.integrators import DIVERGED, EVENT, advance_to
 
 __all__ = ["MarsParams", "descent", "precession", "rhs", "observe", "initial_state",
            "Flight", "simulate", "MarsCapsule", "DT_INTEGRATION", "STEP", "T_MAX"]
@@ -257,36 +257,15 @@ class Flight:
         """Integrate from ``self.t`` to ``t_end`` [s] with the control held at ``u``."""
         if self.done or self.diverged:
             return
-        span = t_end - self.t
-        if span <= 0.0:
-            return
-        n = max(1, math.ceil(span / self.dt - 1e-9))
-        h = span / n
-        args = (u,) + self.args
-        f = self.f
         h_end = self.p.h_end
-        x, t0 = self.x, self.t
         self._obs = None
-        for i in range(n):
-            try:
-                k1 = f(x, *args)
-                xn = rk4_step_with_k1(f, x, k1, h, args)
-            except (ArithmeticError, ValueError):   # e.g. V -> 0 with absurd parameters
-                xn = (math.nan,)
-            if not all(map(math.isfinite, xn)):
-                self.diverged = True
-                self.x, self.t = x, t0 + i * h
-                return
-            if xn[2] <= h_end:
-                g = lambda y: y[2] - h_end  # noqa: E731
-                s, xn = locate_crossing(f, x, k1, h, args, g, g(x), xn[2] - h_end)
-                self.x = xn
-                self.t = self.t_end = t0 + (i + s) * h
-                self.done = True
-                return
-            x = xn
-        self.x, self.t = x, t_end
-
+        self.x, self.t, outcome = advance_to(self.f, self.x, self.t, t_end, self.dt,
+                                             (u,) + self.args, event=lambda y: y[2] - h_end)
+        if outcome == EVENT:
+            self.done = True
+            self.t_end = self.t
+        elif outcome == DIVERGED:   # e.g. V -> 0 with absurd parameters
+            self.diverged = True
 
 def simulate(p: MarsParams = MarsParams(), control=None, step: float = STEP,
              dt: float = DT_INTEGRATION, t_max: float = T_MAX, record: bool = True,

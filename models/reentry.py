@@ -25,7 +25,7 @@ import math
 from dataclasses import dataclass, fields, replace
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.integrators import locate_crossing, rk4_step_with_k1
+from models.integrators import DIVERGED, EVENT, advance_to
 
 __all__ = ["ReentryParams", "SECOND_SCENARIO", "rhs", "initial_state", "altitude", "downrange",
            "deviations", "loads", "simulate", "Reentry", "U_BOUNDS", "T_PLUS"]
@@ -193,36 +193,19 @@ class FlightIntegrator:
         """Integrate from ``self.t`` to ``t_end`` with the control held at ``u``."""
         if self.landed or self.diverged:
             return
-        span = t_end - self.t
-        if span <= 0.0:
-            return
-        n = max(1, math.ceil(span / self.dt - 1e-9))
-        h = span / n
         args = (u,) + self.args
         rz_hf = self.p.Rz + self.p.hf
-        x = self.x
-        t0 = self.t
-        for i in range(n):
-            k1 = rhs(x, *args)
-            self._sample(x, k1, u)
-            xn = rk4_step_with_k1(rhs, x, k1, h, args)
-            r_new = math.hypot(xn[0], xn[2])
-            if not math.isfinite(r_new):
-                self.diverged = True
-                self.x, self.t = x, t0 + i * h
-                return
-            if r_new <= rz_hf:
-                g = lambda y: math.hypot(y[0], y[2]) - rz_hf  # noqa: E731
-                s, xn = locate_crossing(rhs, x, k1, h, args, g, g(x), r_new - rz_hf)
-                self.x = xn
-                self.t = self.t_land = t0 + (i + s) * h
-                self.landed = True
-                self._sample(xn, rhs(xn, *args), u)
-                return
-            x = xn
-        self.x, self.t = x, t_end
+        self.x, self.t, outcome = advance_to(
+            rhs, self.x, self.t, t_end, self.dt, args,
+            event=lambda y: math.hypot(y[0], y[2]) - rz_hf,
+            on_step=lambda y, k1: self._sample(y, k1, u))
+        if outcome == EVENT:
+            self.landed = True
+            self.t_land = self.t
+            self._sample(self.x, rhs(self.x, *args), u)
+        elif outcome == DIVERGED:
+            self.diverged = True
         self.u = u
-
 
 def simulate(p: ReentryParams = ReentryParams(), control=lambda t, x: 0.0, step: float = 1.0,
              t_plus: float = T_PLUS, dt: float = DT_INTEGRATION,

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 import os
 import time
 from dataclasses import asdict
@@ -69,11 +68,8 @@ def run_synthesis(problem_name: str, out: Path, fmu_dir: Path, config: GAConfig,
                   generations: int, seed: int = 1, workers: int = 1,
                   scheduler: str | None = None, resume: bool = False, wide_ops: bool = False,
                   progress: bool = True, export: bool = True, stop_after: int | None = None,
-                  reference_j1: float | None = None, polish: int = 8) -> dict:
+                  reference_j1: float | None = None) -> dict:
     """Run (or resume) a synthesis; return the summary dict (also written to DIR).
-
-    ``polish`` laws of the final front get a local refinement of their parameters
-    (:meth:`VariationalGA.polish`); 0 switches it off.
 
     ``stop_after`` ends the process after that many generations of this call (used by the
     checkpoint tests to simulate an interruption).
@@ -136,11 +132,6 @@ def run_synthesis(problem_name: str, out: Path, fmu_dir: Path, config: GAConfig,
         if not ga.pop:
             remaining = generations
         ga.run(lambda cands: evaluator.evaluate(cands)[0], remaining, callback)
-        if polish and not ga.polished:
-            if bar is not None:
-                bar.set_description(f"polish {problem.name}")
-            ga.polish(lambda cands: evaluator.evaluate(cands)[0], members=polish)
-            _write_json(ckpt, ga.state())
     except _Interrupt:
         evaluator.close()
         if bar is not None:

@@ -2,8 +2,6 @@
 ``robustness``."""
 from __future__ import annotations
 
-import json
-import math
 from pathlib import Path
 
 from synthesis.cli import CliError, emit
