@@ -124,19 +124,27 @@ def _plot(res, path) -> None:
                        label=name if k == 0 else None)
     ax[0].set(xlabel="V [m/s]", ylabel="h [km]", xscale="log",
               title="initial-state set (5 states): h over V")
-    for a in ax:
-        a.add_patch(Rectangle((40, 1.5), 20, 1.0, fill=False, ec="k", lw=1.2))
-        a.grid(alpha=0.3)
+    ax[0].add_patch(Rectangle((40, 1.5), 20, 1.0, fill=False, ec="k", lw=1.2))
     ax[0].legend()
-    ax[1].set(xlabel="V(tf) [m/s]", ylabel="h(tf) [km]",
-              title=f"dispersion: final states ({res['samples']} samples)")
-    for c, (name, r) in zip(("C0", "C3"), res["laws"].items()):
+    for c, m, (name, r) in zip(("C0", "C3"), ("o", "s"), res["laws"].items()):
         pts = r["dispersion_points"]
-        if pts:
-            ax[1].plot([p[0] for p in pts], [p[1] / 1e3 for p in pts], "o", color=c, ms=3,
-                       alpha=0.6, label=name)
-    ax[1].text(40.5, 2.45, "terminal box", fontsize=8, va="top")
-    ax[1].legend()
+        if not pts:
+            continue
+        dh = [max(abs(p[1] - 2000.0), 1e-3) for p in pts]
+        ok = [p[2] for p in pts]
+        k = range(len(pts))
+        ax[1].plot([i for i in k if ok[i]], [dh[i] for i in k if ok[i]], m, color=c, ms=3,
+                   alpha=0.7, label=f"{name}: in box {sum(ok)}/{len(pts)}")
+        if not all(ok):
+            ax[1].plot([i for i in k if not ok[i]], [dh[i] for i in k if not ok[i]], "x",
+                       color=c, ms=5, label=f"{name}: not in box")
+    ax[1].axhline(500.0, color="k", lw=1, ls="--", label="box edge (|h - hf| = 500 m)")
+    ax[1].set(xlabel="dispersion sample", ylabel="|h(tf) - hf| [m]", yscale="log",
+              title=f"dispersion ({res['samples']} samples: theta0, h0, thrust +-3 %, "
+                    f"Isp +-1 %)")
+    ax[1].legend(fontsize=8)
+    for a in ax:
+        a.grid(alpha=0.3)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
