@@ -68,9 +68,11 @@ def run_synthesis(problem_name: str, out: Path, fmu_dir: Path, config: GAConfig,
                   generations: int, seed: int = 1, workers: int = 1,
                   scheduler: str | None = None, resume: bool = False, wide_ops: bool = False,
                   progress: bool = True, export: bool = True, stop_after: int | None = None,
-                  reference_j1: float | None = None) -> dict:
+                  reference_j1: float | None = None, bound: bool = True) -> dict:
     """Run (or resume) a synthesis; return the summary dict (also written to DIR).
 
+    ``reference_j1`` is the bound the report compares with (reentry: the open-loop optimum);
+    if None and ``bound`` is true, the problem computes it (``defaults["reference"]``).
     ``stop_after`` ends the process after that many generations of this call (used by the
     checkpoint tests to simulate an interruption).
     """
@@ -141,6 +143,9 @@ def run_synthesis(problem_name: str, out: Path, fmu_dir: Path, config: GAConfig,
         if bar is not None:
             bar.close()
     elapsed = time.perf_counter() - t0
+    if reference_j1 is None and bound and problem.defaults.get("reference"):
+        # the problem's bound for the report (reentry: the best open-loop program)
+        reference_j1 = problem.defaults["reference"](out)
     summary = _write_results(problem, ga, evaluator, out, fmu_dir, export, reference_j1)
     summary.update({"seconds": elapsed, "evaluations": ga.evaluations,
                     "simulated": evaluator.simulated, "failures": evaluator.failures,

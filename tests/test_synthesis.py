@@ -56,6 +56,7 @@ def test_local_pool_equals_in_process(fmu_dir):
 
 
 def _run(out, fmu_dir, generations=6, **kw):
+    kw.setdefault("bound", False)
     return run_synthesis("reentry", out, fmu_dir, SMALL, generations, seed=11, progress=False,
                          **kw)
 
@@ -77,7 +78,8 @@ def test_killed_cli_run_resumes(fmu_dir, tmp_path):
     # finishes with the same Pareto set as an uninterrupted run of the same seed
     args = [sys.executable, "-m", "synthesis.cli", "synthesize", "reentry", "--population", "16",
             "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
-            "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--fmus", str(fmu_dir)]
+            "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-bound",
+            "--fmus", str(fmu_dir)]
     subprocess.run(args + ["--out", str(tmp_path / "ref")], check=True, cwd=ROOT,
                    capture_output=True)
     out = tmp_path / "killed"
@@ -136,7 +138,7 @@ def test_bad_input(fmu_dir, tmp_path):
         _run(tmp_path / "a", fmu_dir, generations=1)
     with pytest.raises(RunDirError, match="different run"):
         run_synthesis("reentry", tmp_path / "a", fmu_dir, SMALL, 2, seed=12, progress=False,
-                      resume=True)
+                      resume=True, bound=False)
     with pytest.raises(RunDirError, match="no run to resume"):
         _run(tmp_path / "nothing", fmu_dir, resume=True)
 

@@ -39,6 +39,8 @@ def register(sub) -> None:
     p.add_argument("--no-export", action="store_true", help="skip exporting the Pareto laws")
     p.add_argument("--open-loop", type=Path,
                    help="program JSON from optimize-open-loop (its J1 is the reported bound)")
+    p.add_argument("--no-bound", action="store_true",
+                   help="do not compute the open-loop bound for the report (reentry: ~20 s)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--json", action="store_true", help="print a JSON summary")
     p.set_defaults(func=run_synthesize)
@@ -97,7 +99,8 @@ def run_synthesize(args) -> int:
                                 seed=args.seed, workers=args.workers, scheduler=args.scheduler,
                                 resume=args.resume, wide_ops=args.wide_ops,
                                 progress=not (args.quiet or args.json),
-                                export=not args.no_export, reference_j1=ref)
+                                export=not args.no_export, reference_j1=ref,
+                                bound=not args.no_bound)
     except (RunDirError, SchedulerError, FMUNotFoundError) as exc:
         raise CliError(str(exc)) from None
     short = {k: v for k, v in summary.items() if k != "pareto"}

@@ -129,6 +129,35 @@ def summary(rows, reference_j1=None):
     return out
 
 
+def open_loop_reference(out_dir):
+    """J1 of the best open-loop program (N = 120), cached as ``open_loop.json`` in the run."""
+    from pathlib import Path
+
+    from synthesis.open_loop import Program, optimize_open_loop
+    path = Path(out_dir) / "open_loop.json"
+    if path.exists():
+        return Program.load(path).J1
+    prog = optimize_open_loop(segments=120)
+    prog.save(path)
+    return prog.J1
+
+
+#: Initial states of the robust variant: the nominal flight and the extremes of the two
+#: dispersion components that move the landing point most (rho0 +-15 %, V0 +-50 m/s; SPEC S1).
+ROBUST_CASES = ({}, {"rho0": 1.22 * 1.15}, {"rho0": 1.22 * 0.85}, {"V0": 7550.0}, {"V0": 7450.0})
+
+
+def robust_objectives(finals):
+    """Robust variant: J1 = worst max load, J2 = mean miss over ROBUST_CASES."""
+    from models.reentry import ReentryParams
+    res = [objectives(f, ReentryParams(**c)) for f, c in zip(finals, ROBUST_CASES)]
+    j1 = max(r["J1"] for r in res)
+    j2 = sum(r["J2"] for r in res) / len(res)
+    return (j1, j2), {"miss_max": max(r["J2"] for r in res),
+                      "landed_all": all(r["landed"] for r in res),
+                      "J1_nominal": res[0]["J1"], "J2_nominal": res[0]["J2"]}
+
+
 def _register_problem():
     from models.reentry import ReentryParams
     from synthesis.evaluator import SynthesisProblem, register_problem
@@ -137,7 +166,14 @@ def _register_problem():
         objectives=synthesis_objectives, objective_names=("J1", "J2"),
         penalty=(DIVERGED_J1, 2 * NOT_LANDED_PENALTY), basic_law=synthesis_basic_law,
         description="S1 Earth reentry: min max load (J1) and miss at hf (J2) [m]",
-        defaults={"headline": headline, "summary": summary}))
+        defaults={"headline": headline, "summary": summary, "reference": open_loop_reference}))
+    register_problem(SynthesisProblem(
+        name="reentry-robust", wiring=WIRING,
+        initial_states=tuple(plant_values(ReentryParams(**c)) for c in ROBUST_CASES),
+        objectives=robust_objectives, objective_names=("J1", "J2"),
+        penalty=(DIVERGED_J1, 2 * NOT_LANDED_PENALTY), basic_law=synthesis_basic_law,
+        description="S1 reentry, robust: worst max load and mean miss over the nominal flight "
+                    "and the rho0 +-15 %, V0 +-50 m/s extremes"))
 
 
 _register_problem()
