@@ -177,3 +177,19 @@ def test_report_cli(fmu_dir, tmp_path):
     r = cli("--law", str(tmp_path / "missing.json"))
     assert r.returncode == 2 and "cannot read law" in r.stderr
     assert np.isfinite(out["laws"]["synthesised"]["initial_set"]["fuel_max"])
+
+
+def test_synthesize_cli_takes_the_problem_budget(fmu_dir, tmp_path):
+    # options not given on the command line come from SynthesisProblem.defaults["ga"]
+    from synthesis.scenarios.lunar_descent import GA_BUDGET
+    out = tmp_path / "run"
+    r = subprocess.run([sys.executable, "-m", "synthesis.cli", "synthesize", "lunar-descent",
+                        "--population", "6", "--generations", "0", "--workers", "1",
+                        "--no-export", "--json", "--fmus", str(fmu_dir), "--out", str(out)],
+                       cwd=ROOT, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    ga = json.loads((out / "run.json").read_text())["ga"]
+    assert ga["population"] == 6
+    assert {k: ga[k] for k in ("crossovers", "lchr", "epoch")} == \
+        {k: GA_BUDGET[k] for k in ("crossovers", "lchr", "epoch")}
+    assert json.loads(r.stdout)["laws_all_in_box"] >= 1     # the basic law reaches the box
