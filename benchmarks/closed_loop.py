@@ -12,7 +12,7 @@ import argparse
 import json
 import statistics
 import sys
-import time
+import timeit
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -25,12 +25,7 @@ from synthesis.scenarios import reentry as spec  # noqa: E402
 
 
 def timed(fn, repeat):
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts)
+    return statistics.median(timeit.repeat(fn, number=1, repeat=repeat))
 
 
 def main(argv=None):

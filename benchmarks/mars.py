@@ -16,7 +16,7 @@ import json
 import os
 import statistics
 import sys
-import time
+import timeit
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -30,12 +30,7 @@ from synthesis.scenarios import mars as spec  # noqa: E402
 
 
 def timed(fn, repeat):
-    ts = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        ts.append(time.perf_counter() - t0)
-    return statistics.median(ts)
+    return statistics.median(timeit.repeat(fn, number=1, repeat=repeat))
 
 
 def main(argv=None):
