@@ -35,7 +35,7 @@ import math
 from dataclasses import dataclass, fields, replace
 
 from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.integrators import locate_crossing, rk4_step_with_k1
+from models.integrators import DIVERGED, EVENT, advance_to
 
 __all__ = ["DescentParams", "rhs", "box_distance", "controller_inputs", "DescentIntegrator",
            "simulate", "LunarDescent", "U1_BOUNDS", "U2_BOUNDS", "T_PLUS", "G_TILDE",
@@ -176,7 +176,9 @@ def controller_inputs(x, p: DescentParams) -> tuple:
 class DescentIntegrator:
     """Advance the S5 plant with RK4 sub-steps; locate the box entry, a crash or a stall.
 
-    The one integrator of the plant: the :class:`LunarDescent` FMU owns one, and in-process code
+    The one integrator of the plant (on the project's one stepping loop,
+    :func:`models.integrators.advance_to`, with the earliest of the three events as its event
+    function): the :class:`LunarDescent` FMU owns one, and in-process code
     (:func:`simulate`) uses the same class.  After the flight ends the state is frozen.
     """
 
@@ -200,41 +202,29 @@ class DescentIntegrator:
         return ((CRASHED, x[2]), (OUT_OF_DOMAIN, min(x[0] - V_STALL, x[4])),
                 (IN_BOX, box_distance(x, self.p)))
 
+    def _event(self, x) -> float:
+        # the earliest of the three events: min of continuous functions, zero where one is
+        return min(x[2], x[0] - V_STALL, x[4], box_distance(x, self.p))
+
+    def _sample(self, x, k1) -> None:
+        if x[2] < self.h_min:
+            self.h_min = x[2]
+
     def advance(self, t_end: float, u1: float, u2: float) -> None:
         """Integrate from ``self.t`` to ``t_end`` with the controls held at (u1, u2)."""
         if self.stop:
             return
-        span = t_end - self.t
-        if span <= 0.0:
-            return
-        n = max(1, math.ceil(span / self.dt - 1e-9))
-        h = span / n
-        args = (u1, u2) + self.args
-        x, t0 = self.x, self.t
-        for i in range(n):
-            k1 = rhs(x, *args)
-            xn = rk4_step_with_k1(rhs, x, k1, h, args)
-            if not all(math.isfinite(v) for v in xn):
-                self.x, self.t, self.stop = x, t0 + i * h, OUT_OF_DOMAIN
-                self.t_end = self.t
-                return
-            hit = None
-            for code, gn in self._events(xn):
-                if gn <= 0.0:
-                    g = lambda y, c=code: dict(self._events(y))[c]  # noqa: E731
-                    s, xs = locate_crossing(rhs, x, k1, h, args, g, g(x), gn)
-                    if hit is None or s < hit[0]:
-                        hit = (s, xs, code)
-            if hit is not None:
-                s, xs, code = hit
-                self.x, self.t, self.stop = xs, t0 + (i + s) * h, code
-                self.t_end = self.t
-                self.h_min = min(self.h_min, xs[2])
-                return
-            if xn[2] < self.h_min:
-                self.h_min = xn[2]
-            x = xn
-        self.x, self.t = x, t_end
+        x, t, outcome = advance_to(rhs, self.x, self.t, t_end, self.dt, (u1, u2) + self.args,
+                                   self._event, self._sample)
+        self.x, self.t = x, t
+        self._sample(x, None)
+        if outcome == EVENT:
+            # which event: the one whose function is (to the location tolerance) zero
+            self.stop = min(self._events(x), key=lambda e: e[1])[0]
+        elif outcome == DIVERGED:
+            self.stop = OUT_OF_DOMAIN
+        if self.stop:
+            self.t_end = t
 
 
 def simulate(p: DescentParams = DescentParams(), control=lambda t, x: (1.5 * math.pi, 0.0),
