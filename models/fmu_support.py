@@ -20,6 +20,7 @@ import json
 import math
 import os
 from collections import OrderedDict
+from dataclasses import fields
 
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Initial
@@ -241,8 +242,35 @@ class SlaveBase(Fmi2Slave):
                 setattr(cls, name, keep_refs_on_error(cls.__dict__[name]))
 
     # -- life cycle -------------------------------------------------------------------------
+    #: dataclass of the model's parameters (stored in attributes of the same names), if any;
+    #: it must have a ``validate()`` method raising ParameterError
+    params_class = None
+
+    def params(self):
+        """The current parameter values as an instance of :attr:`params_class`."""
+        return self.params_class(**{f.name: getattr(self, f.name)
+                                    for f in fields(self.params_class)})
+
     def check_parameters(self) -> None:
-        """Validate parameters; raise :class:`ParameterError` with an actionable message."""
+        """Validate parameters; raise :class:`ParameterError` with an actionable message.
+
+        Default: ``params().validate()`` and a positive integration step ``dt`` if the FMU has
+        one; subclasses add their own checks after calling this.
+        """
+        if self.params_class is not None:
+            self.params().validate()
+        if hasattr(self, "dt"):
+            require_positive("dt", self.dt)
+
+    def enter_initialization_mode(self) -> None:
+        # The start values are set by now: prepare with them so that outputs read during
+        # initialisation (a container FMU propagates its connections then) already show them.
+        # Invalid values are reported at exit_initialization_mode.
+        try:
+            self.check_parameters()
+        except ParameterError:
+            return
+        self.prepare()
 
     def prepare(self) -> None:
         """Derive run constants and the initial state from the (validated) parameters."""

@@ -255,6 +255,8 @@ class LunarDescent(SlaveBase):
     """FMU of the S5 plant: inputs ``u1``, ``u2``; outputs the state, the controller inputs
     ``y1..y4``, fuel used, minimum altitude and the Integer ``stop`` flag."""
 
+    params_class = DescentParams
+
     description = ("S5 descent from lunar orbit into a terminal box (V, theta, h, phi, m; thrust "
                    "direction u1 and thrust change u2); seed 004, Diveev et al. 2013")
 
@@ -296,26 +298,9 @@ class LunarDescent(SlaveBase):
         self.apply_resource_defaults()
         self.prepare()
 
-    def _params(self) -> DescentParams:
-        return DescentParams(**{f.name: getattr(self, f.name) for f in fields(DescentParams)})
-
-    def check_parameters(self) -> None:
-        self._params().validate()
-        require_positive("dt", self.dt)
-
     def prepare(self) -> None:
-        self._fi = DescentIntegrator(self._params(), self.dt)
+        self._fi = DescentIntegrator(self.params(), self.dt)
         self._publish()
-
-    def enter_initialization_mode(self):
-        # the start values are set by now: outputs read during initialisation (a container FMU
-        # propagates its connections then, before exit) must show them; invalid values are
-        # reported at exit
-        try:
-            self.check_parameters()
-        except ParameterError:
-            return
-        self.prepare()
 
     def _publish(self) -> None:
         fi = self._fi

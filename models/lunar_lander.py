@@ -371,6 +371,8 @@ class LanderIntegrator:
 class LunarLander(SlaveBase):
     """FMU of the S3 plant: input fuel flow ``u``; outputs h, V, m, fuel, touchdown data."""
 
+    params_class = LanderParams
+
     description = ("S3 vertical lunar soft landing (h, V downward, m; fuel flow input); "
                    "seed 002, Mozzhorina 2017")
 
@@ -402,12 +404,8 @@ class LunarLander(SlaveBase):
         self.apply_resource_defaults()
         self.prepare()
 
-    def _params(self) -> LanderParams:
-        return LanderParams(**{f.name: getattr(self, f.name) for f in fields(LanderParams)})
-
     def check_parameters(self) -> None:
-        self._params().validate()
-        require_positive("dt", self.dt)
+        super().check_parameters()
         if not 0.0 < self.m_dry < self.m0:
             raise ParameterError(f"parameter m_dry must be in (0, m0 = {self.m0}) kg, "
                                  f"got {self.m_dry}")
@@ -415,16 +413,7 @@ class LunarLander(SlaveBase):
             raise ParameterError(f"parameter h_contact must be in [0, 1) m, got {self.h_contact}")
 
     def prepare(self) -> None:
-        self._fi = LanderIntegrator(self._params(), self.dt, self.m_dry, self.h_contact)
-
-    def enter_initialization_mode(self):
-        # the start values are set by now: outputs read during initialisation (a container FMU
-        # propagates its connections then) must show them; invalid values are reported at exit
-        try:
-            self.check_parameters()
-        except ParameterError:
-            return
-        self.prepare()
+        self._fi = LanderIntegrator(self.params(), self.dt, self.m_dry, self.h_contact)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         self._fi.advance(current_time + step_size, self.u)

@@ -312,6 +312,8 @@ def simulate(p: MarsParams = MarsParams(), control=None, step: float = STEP,
 class MarsCapsule(SlaveBase):
     """FMU of the averaged S2 plant: input ``u``; outputs alpha, theta, omega, ... (OUTPUTS)."""
 
+    params_class = MarsParams
+
     description = ("S2 asymmetric capsule descending in the Mars atmosphere: point-mass descent "
                    "+ quasi-linear angle-of-attack equations; seed 001, Lyubimov & Kurkina")
 
@@ -367,19 +369,12 @@ class MarsCapsule(SlaveBase):
     def output_names(self):
         return OUTPUTS
 
-    def _params(self) -> MarsParams:
-        return MarsParams(**{f.name: getattr(self, f.name) for f in fields(MarsParams)})
-
-    def check_parameters(self) -> None:
-        self._params().validate()
-        require_positive("dt", self.dt)
-
     def make_flight(self, p: MarsParams) -> Flight:
         return Flight(p, self.dt)
 
     def prepare(self) -> None:
         try:
-            self._fl = self.make_flight(self._params())
+            self._fl = self.make_flight(self.params())
         except ParameterError:
             # invalid start values: keep a default plant until exit_initialization_mode reports
             self._fl = self.make_flight(MarsParams())

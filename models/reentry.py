@@ -227,6 +227,8 @@ def simulate(p: ReentryParams = ReentryParams(), control=lambda t, x: 0.0, step:
 class Reentry(SlaveBase):
     """FMU of the S1 plant: input ``u``, outputs the state, altitude, range, loads, y1, y2."""
 
+    params_class = ReentryParams
+
     description = ("S1 Earth atmospheric descent of a capsule (planar, geocentric Cartesian); "
                    "seed 000, Diveev & Shmalko")
 
@@ -262,15 +264,8 @@ class Reentry(SlaveBase):
         self.apply_resource_defaults()
         self.prepare()
 
-    def _params(self) -> ReentryParams:
-        return ReentryParams(**{f.name: getattr(self, f.name) for f in fields(ReentryParams)})
-
-    def check_parameters(self) -> None:
-        self._params().validate()
-        require_positive("dt", self.dt)
-
     def prepare(self) -> None:
-        self._fi = FlightIntegrator(self._params(), self.dt)
+        self._fi = FlightIntegrator(self.params(), self.dt)
         self._publish()
 
     def _publish(self) -> None:

@@ -149,15 +149,6 @@ class LandingSwitch(SlaveBase):
         self._dirty = True
         self._measured = True
 
-    def enter_initialization_mode(self):
-        # parameters are set by now: build the law so outputs read during initialisation
-        # (e.g. by a container FMU) already use them; errors are reported at exit
-        try:
-            self.check_parameters()
-        except ParameterError:
-            return
-        self.prepare()
-
     def check_parameters(self) -> None:
         for name in ("umax", "beta", "g_nominal", "step"):
             require_positive(name, getattr(self, name))

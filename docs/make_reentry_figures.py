@@ -1,0 +1,82 @@
+#!/usr/bin/env python
+"""Make the S1 figures of the docs from a synthesis run (every flight through the FMUs).
+
+* ``docs/reentry_pareto.png`` -- the run's Pareto front with the basic law and the open-loop bound;
+* ``docs/reentry_flight.png`` -- the best synthesised law with miss < 1 km against the basic law
+  and the optimal open-loop program: h(L), load(t), u(t);
+* ``tests/reference/reentry_best_law.json`` -- that law (the tests fly it through the FMUs).
+
+    python docs/make_reentry_figures.py RUN_DIR [--fmus DIR]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from models.reentry import ReentryParams  # noqa: E402
+from synthesis.cosim import ClosedLoop  # noqa: E402
+from synthesis.network_operator import NetworkOperator  # noqa: E402
+from synthesis.open_loop import Program  # noqa: E402
+from synthesis.reentry_flight import fly, open_loop  # noqa: E402
+from synthesis.robustness import program_start_values, program_wiring  # noqa: E402
+from synthesis.scenarios import reentry as spec  # noqa: E402
+
+DOCS = ROOT / "docs"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("run", type=Path)
+    ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
+    args = ap.parse_args(argv)
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    summary = json.loads((args.run / "summary.json").read_text())
+    shutil.copy(args.run / "pareto.png", DOCS / "reentry_pareto.png")
+    best = summary["best_miss_below_1km"]
+    rows = json.loads((args.run / "pareto.json").read_text())
+    law = NetworkOperator.from_dict(next(r for r in rows if r["k"] == best["k"])["law"])
+    ref = ROOT / "tests" / "reference" / "reentry_best_law.json"
+    ref.parent.mkdir(exist_ok=True)
+    law.save(ref)
+    prog = Program.load(args.run / "open_loop.json")
+    flights = {}
+    with open_loop(args.fmus, record=("h", "L", "load")) as loop:
+        for name, lw in (("synthesised law", law), ("basic law (paper q)",
+                                                     NetworkOperator.basic_law())):
+            f = fly(lw, loop=loop, record=True)
+            flights[name] = (f.result, f.objectives)
+    w = program_wiring(prog.t_seg)
+    with ClosedLoop(w, args.fmus / "Reentry.fmu", args.fmus / "ProgramController.fmu",
+                    record=("h", "L", "load")) as loop:
+        r = loop.run(spec.plant_values(ReentryParams()), program_start_values(prog), record=True)
+        flights["open-loop optimum (N = 120)"] = (r, spec.objectives(r.final, ReentryParams()))
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
+    for name, (r, o) in flights.items():
+        lab = f"{name}: J1 = {o['J1']:.3f}, miss = {o['J2'] / 1e3:.2f} km"
+        ax[0].plot(r["L"] / 1e3, r["h"] / 1e3, label=lab)
+        ax[1].plot(r.time, r["load"], label=name)
+        ax[2].step(r.time, r["ctrl.u[1]"], where="post", label=name)
+    ax[0].set(xlabel="down-range L [km]", ylabel="h [km]", title="trajectory")
+    ax[1].set(xlabel="t [s]", ylabel="load (J1 integrand)", title="load")
+    ax[2].set(xlabel="t [s]", ylabel="u", title="control")
+    ax[0].legend(fontsize=7)
+    for a in ax:
+        a.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(DOCS / "reentry_flight.png", dpi=100)
+    plt.close(fig)
+    for name, (_, o) in flights.items():
+        print(f"{name:32s} J1 = {o['J1']:.4f}  miss = {o['J2']:.1f} m")
+
+
+if __name__ == "__main__":
+    main()
