@@ -13,6 +13,8 @@ def register(sub) -> None:
     p.add_argument("system", choices=["reentry"], help="system to fly")
     p.add_argument("--law", type=Path, help="law JSON file (network operator); default: the "
                    "paper's basic law with q1 = 2.259375, q2 = 1.953125")
+    p.add_argument("--paper-law", action="store_true",
+                   help="fly the paper's printed 16-node law (seed 000) instead of the basic law")
     p.add_argument("--q", type=float, nargs="+", help="override the law's parameters q")
     p.add_argument("--scenario", default="default", choices=["default", "second"],
                    help="entry conditions of SPEC S1 (default: V0 7500 m/s, h0 100 km, "
@@ -28,11 +30,17 @@ def run(args) -> int:
     from synthesis.reentry_flight import fly, plot_flight
 
     try:
-        law = NetworkOperator.load(args.law) if args.law else NetworkOperator.basic_law()
+        if args.law:
+            law = NetworkOperator.load(args.law)
+        else:
+            law = NetworkOperator.paper_law() if args.paper_law else NetworkOperator.basic_law()
     except (OSError, LawFileError) as exc:
         raise CliError(f"cannot read law {args.law}: {exc}") from None
     if args.q:
-        law = law.with_q(args.q)
+        try:
+            law = law.with_q(args.q)
+        except ValueError as exc:
+            raise CliError(str(exc)) from None
     res = fly(law, scenario=args.scenario, fmu_dir=args.fmus, record=bool(args.plot))
     summary = res.summary()
     if args.plot:
