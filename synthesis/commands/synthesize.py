@@ -10,7 +10,8 @@ FMU_DIR = Path(__file__).resolve().parents[2] / "fmus"
 
 #: Default budget: a useful result on a 2-core laptop in <= 15 minutes (see the note in
 #: models/README.md for the measured run).
-DEFAULTS = {"population": 256, "generations": 400, "crossovers": 32, "lchr": 8, "epoch": 12}
+DEFAULTS = {"population": 256, "generations": 400, "crossovers": 32, "lchr": 8, "epoch": 12,
+            "seed": 1}
 
 
 def register(sub) -> None:
@@ -28,7 +29,8 @@ def register(sub) -> None:
                    help="generations between changes of the basic solution")
     p.add_argument("--wide-ops", action="store_true",
                    help="let variations use the authors' wider operation set (28 unary, 4 binary)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=None,
+                   help="random seed (default: the problem's, else 1); same seed, same result")
     p.add_argument("--workers", type=int, default=2, help="local worker processes")
     p.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT): evaluate on "
                    "that cluster instead of local processes")
