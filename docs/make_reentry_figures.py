@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shutil
 import sys
 from pathlib import Path
 
@@ -21,11 +20,13 @@ sys.path.insert(0, str(ROOT))
 
 from models.reentry import ReentryParams  # noqa: E402
 from synthesis.cosim import ClosedLoop  # noqa: E402
+from synthesis.evaluator import get_problem  # noqa: E402
 from synthesis.network_operator import NetworkOperator  # noqa: E402
 from synthesis.open_loop import Program  # noqa: E402
 from synthesis.reentry_flight import fly, open_loop  # noqa: E402
 from synthesis.robustness import program_start_values, program_wiring  # noqa: E402
 from synthesis.scenarios import reentry as spec  # noqa: E402
+from synthesis.synthesize import plot_front  # noqa: E402
 
 DOCS = ROOT / "docs"
 
@@ -40,9 +41,10 @@ def main(argv=None):
     import matplotlib.pyplot as plt
 
     summary = json.loads((args.run / "summary.json").read_text())
-    shutil.copy(args.run / "pareto.png", DOCS / "reentry_pareto.png")
     best = summary["best_miss_below_1km"]
     rows = json.loads((args.run / "pareto.json").read_text())
+    plot_front(get_problem("reentry"), rows, summary, DOCS / "reentry_pareto.png",
+               summary.get("open_loop_J1"))
     law = NetworkOperator.from_dict(next(r for r in rows if r["k"] == best["k"])["law"])
     ref = ROOT / "tests" / "reference" / "reentry_best_law.json"
     ref.parent.mkdir(exist_ok=True)

@@ -93,10 +93,10 @@ def plot_study(study: dict, path) -> Path:
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.5))
     miss = [np.array([r["J2"] for r in study["results"][n]]) / 1e3 for n in names]
     j1 = [np.array([r["J1"] for r in study["results"][n]]) for n in names]
-    ax[0].boxplot(miss, labels=[n[:28] for n in names], vert=True)
+    ax[0].boxplot(miss, tick_labels=[n[:28] for n in names])
     ax[0].set_yscale("log")
     ax[0].set_ylabel("miss |L(tf) - Lf| [km]")
-    ax[1].boxplot(j1, labels=[n[:28] for n in names], vert=True)
+    ax[1].boxplot(j1, tick_labels=[n[:28] for n in names])
     ax[1].set_ylabel("J1 (max load)")
     for a in ax:
         a.tick_params(axis="x", labelrotation=20)

@@ -212,7 +212,7 @@ def _write_results(problem, ga, evaluator, out: Path, fmu_dir, export: bool,
     head = problem.defaults.get("summary")
     if head:
         summary.update(head(rows, reference_j1))
-    _plot_front(problem, rows, summary, out / "pareto.png", reference_j1)
+    plot_front(problem, rows, summary, out / "pareto.png", reference_j1)
     if export:
         for r, law in zip(rows, laws):
             r.update(export_law(problem, law, fmu_dir, out / "laws" / str(r["k"]),
@@ -224,7 +224,8 @@ def _write_results(problem, ga, evaluator, out: Path, fmu_dir, export: bool,
     return summary
 
 
-def _plot_front(problem, rows, summary, path: Path, reference_j1) -> None:
+def plot_front(problem, rows, summary, path: Path, reference_j1) -> None:
+    """pareto.png: the front, the basic law and (if known) the bound of objective 1."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -239,9 +240,10 @@ def _plot_front(problem, rows, summary, path: Path, reference_j1) -> None:
     if reference_j1:
         ax.axvline(reference_j1, color="k", ls="--", lw=1,
                    label=f"open-loop optimum {names[0]} = {reference_j1:.3f}")
-    ax.set_xlabel(names[0])
-    ax.set_ylabel(names[1])
+    ax.set_xlabel(problem.defaults.get("labels", names)[0])
+    ax.set_ylabel(problem.defaults.get("labels", names)[1])
     ax.set_yscale("symlog", linthresh=100.0)
+    ax.set_ylim(bottom=0.0)
     ax.grid(alpha=0.3)
     ax.legend()
     ax.set_title(f"{problem.name}: Pareto front ({len(rows)} laws)")

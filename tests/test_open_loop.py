@@ -7,7 +7,7 @@ import pytest
 from models.reentry import ReentryParams, downrange
 from synthesis.network_operator import NetworkOperator
 from synthesis.open_loop import Program, fly_program, optimize_open_loop
-from synthesis.robustness import dispersion_samples, dispersion_study
+from synthesis.robustness import dispersion_samples, dispersion_study, plot_study
 
 
 @pytest.fixture(scope="module")
@@ -35,13 +35,14 @@ def test_program_file_round_trip(program, tmp_path):
         Program.load(tmp_path / "bad.json")
 
 
-def test_the_blind_program_misses_under_dispersion(program, fmu_dir):
+def test_the_blind_program_misses_under_dispersion(program, fmu_dir, tmp_path):
     # SPEC S1: the model is not exactly known, so the optimal program flown blind misses: on the
     # dispersion set (rho0 +-15 %, m +-5 %, V0 +-50 m/s, beta0 +-0.03 deg) its median miss is
     # many km although its nominal replay through the FMUs (ProgramController, step = segment)
     # reproduces the optimised flight exactly.
     study = dispersion_study({"basic": NetworkOperator.basic_law()}, program, samples=12,
                              seed=7, fmu_dir=fmu_dir)
+    assert plot_study(study, tmp_path / "robust.png").stat().st_size > 10_000
     prog = study["stats"]["open-loop program (blind)"]
     assert prog["J1_nominal"] == pytest.approx(program.J1, rel=1e-12)
     assert prog["miss_nominal"] < 1.0

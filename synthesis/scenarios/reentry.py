@@ -175,7 +175,8 @@ def _register_problem():
         penalty=(DIVERGED_J1, 2 * NOT_LANDED_PENALTY), basic_law=synthesis_basic_law,
         description="S1 Earth reentry: min max load (J1) and miss at hf (J2) [m]",
         defaults={"headline": headline, "summary": summary, "reference": open_loop_reference,
-                  "ga": REENTRY_BUDGET}))
+                  "ga": REENTRY_BUDGET,
+                  "labels": ("J1 = max load (paper's eq. 7)", "J2 = miss at hf [m]")}))
     register_problem(SynthesisProblem(
         name="reentry-robust", wiring=WIRING,
         initial_states=tuple(plant_values(ReentryParams(**c)) for c in ROBUST_CASES),
