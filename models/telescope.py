@@ -44,7 +44,7 @@ PHI = (1.0 + math.sqrt(5.0)) / 2.0
 GIMBAL_AXES = ((0.0, 1.0, PHI), (0.0, 1.0, -PHI), (1.0, PHI, 0.0), (-1.0, PHI, 0.0),
                (PHI, 0.0, 1.0), (PHI, 0.0, -1.0))
 #: Default RK4 sub-step inside the FMU [s]; the direct method uses the same sub-steps.
-DT_INTEGRATION = 0.05
+DT_INTEGRATION = 0.025
 #: Reorientation time of SPEC S4 [s].
 T_DEFAULT = 40.0
 
