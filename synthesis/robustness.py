@@ -94,7 +94,6 @@ def plot_study(study: dict, path) -> Path:
     miss = [np.array([r["J2"] for r in study["results"][n]]) / 1e3 for n in names]
     j1 = [np.array([r["J1"] for r in study["results"][n]]) for n in names]
     ax[0].boxplot(miss, tick_labels=[n[:28] for n in names])
-    ax[0].set_yscale("log")
     ax[0].set_ylabel("miss |L(tf) - Lf| [km]")
     ax[1].boxplot(j1, tick_labels=[n[:28] for n in names])
     ax[1].set_ylabel("J1 (max load)")
