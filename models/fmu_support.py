@@ -160,6 +160,15 @@ class SlaveBase(Fmi2Slave):
                   lambda v, n=name: setattr(self, n, v), causality=Fmi2Causality.parameter,
                   variability=Fmi2Variability.fixed, description=description)
 
+    def parameters(self, descriptions) -> None:
+        """Real parameters named as fields of :attr:`params_class`, with its defaults.
+
+        ``descriptions`` is a sequence of (name, description with the unit in brackets).
+        """
+        defaults = self.params_class()
+        for name, desc in descriptions:
+            self.parameter(name, getattr(defaults, name), desc)
+
     def int_parameter(self, name: str, start: int, description: str, getter=None,
                       setter=None) -> None:
         """An Integer parameter (attribute ``name`` unless a getter/setter pair is given)."""

@@ -262,20 +262,18 @@ class LunarDescent(SlaveBase):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        d = DescentParams()
-        for name, desc in [("P0", "nominal thrust [kgf]"), ("P_ud", "specific impulse [s]"),
-                           ("k_P", "thrust factor (dispersion; scales thrust and mass flow) [1]"),
-                           ("g0", "lunar surface gravity [m/s2]"),
-                           ("R0", "mean lunar radius [m]"), ("m0", "initial mass [kg]"),
-                           ("V0", "initial speed [m/s]"),
-                           ("theta0", "initial angle of the velocity from the upward vertical "
-                            "[rad]"),
-                           ("h0", "initial altitude [m]"), ("phi0", "initial range angle [rad]"),
-                           ("V_lo", "terminal box: lower speed [m/s]"),
-                           ("V_hi", "terminal box: upper speed [m/s]"),
-                           ("h_lo", "terminal box: lower altitude [m]"),
-                           ("h_hi", "terminal box: upper altitude [m]")]:
-            self.parameter(name, getattr(d, name), desc)
+        self.parameters([("P0", "nominal thrust [kgf]"), ("P_ud", "specific impulse [s]"),
+                         ("k_P", "thrust factor (dispersion; scales thrust and mass flow) [1]"),
+                         ("g0", "lunar surface gravity [m/s2]"),
+                         ("R0", "mean lunar radius [m]"), ("m0", "initial mass [kg]"),
+                         ("V0", "initial speed [m/s]"),
+                         ("theta0", "initial angle of the velocity from the upward vertical "
+                          "[rad]"),
+                         ("h0", "initial altitude [m]"), ("phi0", "initial range angle [rad]"),
+                         ("V_lo", "terminal box: lower speed [m/s]"),
+                         ("V_hi", "terminal box: upper speed [m/s]"),
+                         ("h_lo", "terminal box: lower altitude [m]"),
+                         ("h_hi", "terminal box: upper altitude [m]")])
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.input("u1", 1.5 * math.pi, "thrust direction from the upward vertical, clipped to "
                    "[pi, 2 pi] [rad]")

@@ -378,13 +378,11 @@ class LunarLander(SlaveBase):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        d = LanderParams()
-        for name, desc in [("gL", "lunar gravity [m/s2]"), ("beta", "exhaust velocity [m/s]"),
-                           ("umax", "maximum fuel flow (paper's 15.74 is a misprint of 14.57) "
-                                    "[kg/s]"),
-                           ("h0", "initial altitude [m]"), ("V0", "initial downward speed [m/s]"),
-                           ("m0", "initial mass [kg]")]:
-            self.parameter(name, getattr(d, name), desc)
+        self.parameters([("gL", "lunar gravity [m/s2]"), ("beta", "exhaust velocity [m/s]"),
+                         ("umax", "maximum fuel flow (paper's 15.74 is a misprint of 14.57) "
+                                  "[kg/s]"),
+                         ("h0", "initial altitude [m]"), ("V0", "initial downward speed [m/s]"),
+                         ("m0", "initial mass [kg]")])
         self.parameter("m_dry", 1.0, "mass below which the engine is cut (guard) [kg]")
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.parameter("h_contact", H_CONTACT, "altitude at which touchdown is declared [m]")

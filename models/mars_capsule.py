@@ -350,9 +350,7 @@ class MarsCapsule(SlaveBase):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        d = MarsParams()
-        for name, desc in self.PARAMETERS:
-            self.parameter(name, getattr(d, name), desc)
+        self.parameters(self.PARAMETERS)
         self.parameter("dt", self.DT, "RK4 sub-step of the internal integration [s]")
         self.input("u", 0.0, "control m^A: normalised asymmetry moment [1]")
         fl = lambda: self._fl  # noqa: E731

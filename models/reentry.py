@@ -234,15 +234,13 @@ class Reentry(SlaveBase):
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        d = ReentryParams()
-        for name, desc in [("m", "capsule mass [kg]"), ("S", "reference area [m2]"),
-                           ("rho0", "sea-level air density [kg/m3]"),
-                           ("lam", "inverse density scale height [1/m]"),
-                           ("g0", "surface gravity [m/s2]"), ("Rz", "Earth radius [m]"),
-                           ("V0", "entry speed [m/s]"), ("h0", "entry altitude [m]"),
-                           ("beta0", "entry path angle [rad]"), ("hf", "final altitude [m]"),
-                           ("Lf", "required down-range at hf [m]")]:
-            self.parameter(name, getattr(d, name), desc)
+        self.parameters([("m", "capsule mass [kg]"), ("S", "reference area [m2]"),
+                         ("rho0", "sea-level air density [kg/m3]"),
+                         ("lam", "inverse density scale height [1/m]"),
+                         ("g0", "surface gravity [m/s2]"), ("Rz", "Earth radius [m]"),
+                         ("V0", "entry speed [m/s]"), ("h0", "entry altitude [m]"),
+                         ("beta0", "entry path angle [rad]"), ("hf", "final altitude [m]"),
+                         ("Lf", "required down-range at hf [m]")])
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.input("u", 0.0, "relative change of drag, clipped to [-0.2, 0.2] [1]")
         # Outputs are plain attributes refreshed once per step by _publish (cheap getters: the
