@@ -55,6 +55,25 @@ def test_local_pool_equals_in_process(fmu_dir):
         assert np.array_equal(ev1.evaluate(laws)[0], ev2.evaluate(laws)[0])
 
 
+def test_local_worker_death_costs_no_candidate(fmu_dir):
+    # a worker process of the local pool dies between batches: the batch fails with a broken
+    # pool, a fresh pool is started and the candidates are retried -- same numbers, no penalty
+    rng = np.random.default_rng(5)
+    laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
+    with Evaluator("reentry", fmu_dir) as ev1:
+        F_ref = ev1.evaluate(laws)[0]
+    with Evaluator("reentry", fmu_dir, workers=2) as ev:
+        ev.evaluate([NetworkOperator.basic_law()])          # start the workers
+        old_pool = ev._pool
+        for proc in list(ev._pool._processes.values()):
+            os.kill(proc.pid, signal.SIGKILL)
+        time.sleep(0.5)
+        F = ev.evaluate(laws)[0]
+        assert ev._pool is not old_pool                     # the broken pool was replaced
+        assert ev.failures == 0
+    assert np.array_equal(F, F_ref)
+
+
 def _run(out, fmu_dir, generations=6, **kw):
     kw.setdefault("bound", False)
     return run_synthesis("reentry", out, fmu_dir, SMALL, generations, seed=11, progress=False,
