@@ -368,6 +368,7 @@ class LanderIntegrator:
             self.x = x
         self.t = t_end
 
+
 class LunarLander(SlaveBase):
     """FMU of the S3 plant: input fuel flow ``u``; outputs h, V, m, fuel, touchdown data."""
 

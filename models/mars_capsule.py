@@ -267,6 +267,7 @@ class Flight:
         elif outcome == DIVERGED:   # e.g. V -> 0 with absurd parameters
             self.diverged = True
 
+
 def simulate(p: MarsParams = MarsParams(), control=None, step: float = STEP,
              dt: float = DT_INTEGRATION, t_max: float = T_MAX, record: bool = True,
              flight: Flight | None = None):

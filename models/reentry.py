@@ -207,6 +207,7 @@ class FlightIntegrator:
             self.diverged = True
         self.u = u
 
+
 def simulate(p: ReentryParams = ReentryParams(), control=lambda t, x: 0.0, step: float = 1.0,
              t_plus: float = T_PLUS, dt: float = DT_INTEGRATION,
              trace: bool = False) -> FlightIntegrator:
@@ -285,4 +286,3 @@ class Reentry(SlaveBase):
         self._fi.advance(current_time + step_size, min(max(u, U_BOUNDS[0]), U_BOUNDS[1]))
         self._publish()
         return True
-

@@ -1,4 +1,4 @@
-"""The variational genetic algorithm of the network-operator method (principle of the basic solution).
+"""The variational genetic algorithm of the network-operator method (basic-solution principle).
 
 An individual is a list of ``lchr`` small variations of the basic matrix plus the parameters q as a
 Gray-coded bit string.  Evaluating it means: start from the basic matrix, apply the variations in

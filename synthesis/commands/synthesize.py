@@ -177,7 +177,8 @@ def run_robustness(args) -> int:
     lines = [f"{'law':40s} {'miss median':>12s} {'miss p95':>10s} {'miss max':>10s} "
              f"{'J1 median':>10s} {'J1 max':>8s} {'landed':>7s}"]
     for name, s in study["stats"].items():
-        lines.append(f"{name[:40]:40s} {s['miss_median'] / 1e3:10.2f}km {s['miss_p95'] / 1e3:8.2f}km "
+        lines.append(f"{name[:40]:40s} {s['miss_median'] / 1e3:10.2f}km "
+                     f"{s['miss_p95'] / 1e3:8.2f}km "
                      f"{s['miss_max'] / 1e3:8.2f}km {s['J1_median']:10.3f} {s['J1_max']:8.3f} "
                      f"{s['landed_fraction']:7.0%}")
     emit(args, {"samples": args.samples, "seed": args.seed, "stats": study["stats"]},
