@@ -27,3 +27,10 @@ def fmu_dir() -> Path:
     if not all((d / f).is_file() for f in _expected_fmus()):
         subprocess.run([sys.executable, str(ROOT / "build_fmus.py"), "--out", str(d)], check=True)
     return d
+
+
+@pytest.fixture(scope="session")
+def open_loop_program():
+    """The best open-loop S1 program, N = 120 (synthesis.open_loop; ~20 s, computed once)."""
+    from synthesis.open_loop import optimize_open_loop
+    return optimize_open_loop(segments=120)

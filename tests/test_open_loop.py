@@ -6,13 +6,13 @@ import pytest
 
 from models.reentry import ReentryParams, downrange
 from synthesis.network_operator import NetworkOperator
-from synthesis.open_loop import Program, fly_program, optimize_open_loop
+from synthesis.open_loop import Program, fly_program
 from synthesis.robustness import dispersion_samples, dispersion_study, plot_study
 
 
 @pytest.fixture(scope="module")
-def program():
-    return optimize_open_loop(segments=120)
+def program(open_loop_program):
+    return open_loop_program
 
 
 def test_open_loop_optimum_matches_spec(program):

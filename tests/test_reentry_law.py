@@ -12,7 +12,6 @@ import pytest
 from fmpy import simulate_fmu
 
 from synthesis.network_operator import NetworkOperator
-from synthesis.open_loop import optimize_open_loop
 from synthesis.reentry_flight import fly
 
 LAW = Path(__file__).parent / "reference" / "reentry_best_law.json"
@@ -25,8 +24,8 @@ def law():
     return NetworkOperator.load(LAW)
 
 
-def test_synthesised_law_meets_the_target(law, fmu_dir):
-    bound = optimize_open_loop(segments=120).J1
+def test_synthesised_law_meets_the_target(law, fmu_dir, open_loop_program):
+    bound = open_loop_program.J1
     o = fly(law, fmu_dir=fmu_dir).objectives
     assert o["landed"]
     assert o["J2"] < 1000.0                    # miss < 1 km
