@@ -150,9 +150,6 @@ class SlaveBase(Fmi2Slave):
         SlaveBase._prototypes[key] = ([SlaveBase._prototypes[(type(self), n)][0] for n in names],
                                       vr0)
 
-    def _register(self, var) -> None:
-        self.register_variable(var)
-
     def parameter(self, name: str, start: float, description: str) -> None:
         """A Real parameter stored in attribute ``name`` (start value = current default)."""
         setattr(self, name, float(start))
