@@ -33,11 +33,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    from models.controllers.network_operator import MatrixError
+    from models.fmu_support import ParameterError
+    from synthesis.cosim import FMUError
+
     ap = build_parser()
     args = ap.parse_args(argv)
     try:
         return int(args.func(args) or 0)
     except CliError as exc:
+        print(f"descent-fmus {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except (OSError, FMUError, ParameterError, MatrixError) as exc:
+        # user-facing failures (a missing FMU or folder, a file that cannot be written, an FMU
+        # rejecting a value): one line, no traceback
         print(f"descent-fmus {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -172,6 +172,11 @@ def test_cli_messages(fmu_dir, tmp_path):
     bad.write_text('{"psi": [[0, 1], [0, 0]], "nx": 1, "q": [], "outputs": [5]}')
     r = cli("fly", "reentry", "--law", str(bad), "--fmus", str(fmu_dir))
     assert r.returncode == 2 and "output 1 names node 5, outside 1..2" in r.stderr
+    r = cli("fly", "reentry", "--fmus", str(tmp_path / "nowhere"))
+    assert r.returncode == 2 and "FMU not found" in r.stderr and "build_fmus.py" in r.stderr
+    assert "Traceback" not in r.stderr
+    r = cli("fly", "reentry", "--fmus", str(fmu_dir), "--plot", str(tmp_path / "no" / "x.png"))
+    assert r.returncode == 2 and "No such file or directory" in r.stderr
     r = cli("synthesize", "reentry", "--scheduler", "tcp://127.0.0.1:9", "--out",
             str(tmp_path / "y"), "--fmus", str(fmu_dir), "--generations", "1")
     assert r.returncode == 2 and "cannot reach the Dask scheduler" in r.stderr
