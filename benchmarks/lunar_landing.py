@@ -22,9 +22,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from models.controllers.landing_switch import SwitchLaw  # noqa: E402
-from models.lunar_lander import LanderIntegrator, LanderParams, optimal_landing  # noqa: E402
-from synthesis.landing import LandingLoops, dispersion  # noqa: E402
+from models.lunar_lander import optimal_landing  # noqa: E402
+from synthesis.landing import LandingLoops, dispersion, fly_feedback_in_process  # noqa: E402
 from synthesis.scenarios.lunar_landing import PAPER_GUESSES, landing_problem  # noqa: E402
 from synthesis.shooting import solve  # noqa: E402
 
@@ -38,16 +37,8 @@ def timed(fn, repeat):
     return statistics.median(ts), out
 
 
-def in_process_feedback(p=LanderParams(), dt=0.01):
-    fi, law = LanderIntegrator(p), SwitchLaw(dt=dt)
-    k = 0
-    while not fi.touched_down and k < 4000:
-        u = law.control(*fi.x)
-        V = fi.x[1]
-        fi.advance((k + 1) * dt, u)
-        law.stepped(V, u, dt)
-        k += 1
-    return k
+def in_process_feedback():
+    return fly_feedback_in_process()[1]
 
 
 def main(argv=None):

@@ -19,8 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from models.lunar_lander import LanderParams, optimal_landing
+from models.controllers.landing_switch import SwitchLaw
+from models.lunar_lander import LanderIntegrator, LanderParams, optimal_landing
 from synthesis.shooting import ShootingResult, solve
+from synthesis.plotting import save_figure
 
 __all__ = ["LandingSolution", "solve_landing", "plot_solution", "LandingLoops", "Touchdown",
            "dispersion", "dispersion_table", "plot_dispersion", "SOFT_SPEED", "FMU_DIR",
@@ -31,6 +33,21 @@ FMU_DIR = Path(__file__).resolve().parent.parent / "fmus"
 SOFT_SPEED = 0.05
 #: Relative half-widths of the dispersion box: h0, V0 (±10 %) and gL (±2 %) (issue 4).
 DISPERSION = dict(h0=0.10, V0=0.10, gL=0.02)
+
+
+def fly_feedback_in_process(p: LanderParams = LanderParams(), dt: float = 0.01,
+                            max_steps: int = 4000):
+    """The feedback law flown without FMUs: the same SwitchLaw and LanderIntegrator the FMUs
+    run, the same master order (read state, law, step).  Returns (integrator, steps)."""
+    fi, law = LanderIntegrator(p), SwitchLaw(dt=dt)
+    k = 0
+    while not fi.touched_down and k < max_steps:
+        u = law.control(*fi.x)
+        V = fi.x[1]
+        fi.advance((k + 1) * dt, u)
+        law.stepped(V, u, dt)
+        k += 1
+    return fi, k
 
 
 @dataclass
@@ -165,11 +182,7 @@ def plot_solution(sol: LandingSolution, path, extra_switches=(4.51, 4.91)) -> Pa
     fig.suptitle(f"S3 lunar landing, umax = {p.umax} kg/s: T = {sol.T:.4f} s, "
                  f"fuel = {sol.fuel:.2f} kg ({sol.result.method}, {sol.result.iterations} "
                  f"Newton iterations)")
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, dpi=110)
 
 
 # --------------------------------------------------------------------------- closed loops
@@ -341,10 +354,4 @@ def plot_dispersion(loops: LandingLoops, rows, path, n_traj: int = 12) -> Path:
                   title=f"{law} (FMUs): phase trajectories")
         ax[k].set_xlim(left=0.0)
         ax[k].legend()
-    for a in ax:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, ax, dpi=110)

@@ -21,6 +21,7 @@ import numpy as np
 from models.controllers.mars_bellman import CONSISTENT, PAPER
 from synthesis.cosim import ClosedLoop, ClosedLoopResult
 from synthesis.scenarios import mars as spec
+from synthesis.plotting import save_figure
 
 __all__ = ["FMU_DIR", "MarsRun", "open_loop", "fly", "fly_set", "plot_alpha", "RECORD",
            "RECORD_6DOF", "FORMULAS"]
@@ -123,10 +124,4 @@ def plot_alpha(runs, path, title: str | None = None, log: bool = True) -> Path:
     ax[0].legend(fontsize=8)
     ax[1].set(xlabel="t [s]", ylabel="u = m^A", title="control")
     ax[1].legend(fontsize=8)
-    for a in ax:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, ax, dpi=90)

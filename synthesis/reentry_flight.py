@@ -8,6 +8,7 @@ from models.reentry import SECOND_SCENARIO, ReentryParams
 from synthesis.cosim import ClosedLoop, ClosedLoopResult
 from synthesis.network_operator import NetworkOperator
 from synthesis.scenarios import reentry as spec
+from synthesis.plotting import save_figure
 
 FMU_DIR = Path(__file__).resolve().parent.parent / "fmus"
 SCENARIOS = {"default": ReentryParams(), "second": SECOND_SCENARIO}
@@ -75,10 +76,4 @@ def plot_flight(flight: Flight, path, label: str | None = None) -> Path:
     ax[2].step(r.time, r["ctrl.u[1]"], where="post")
     ax[2].set(xlabel="t [s]", ylabel="u [-]",
               title=f"control; miss = {flight.objectives['J2'] / 1e3:.2f} km")
-    for a in ax:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return path
+    return save_figure(fig, path, ax, dpi=110)
