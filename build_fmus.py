@@ -1,9 +1,11 @@
 #!/usr/bin/env python
 """Build every FMU of descent-fmus into fmus/ (plants, controllers, closed loops + SSP files).
 
-Usage: ``python build_fmus.py [--validate] [--out DIR]``.  Run it from anywhere; the output
-goes to ``fmus/`` beside this file.  Every FMU is FMI 2.0 co-simulation (pythonfmu); the
-``*ClosedLoop.fmu`` are fmpy container FMUs that ``fmpy simulate`` runs directly.
+Usage: ``python build_fmus.py [--validate] [--out DIR] [--system STEM ...]``, after
+``pip install -e .``.  The output goes to ``fmus/`` beside this file unless ``--out`` says
+otherwise.  What is built comes from the registry of systems (``synthesis/registry.py``): every
+system's pythonfmu FMU classes, then its closed loops as fmpy container FMUs (``fmpy simulate``
+runs them directly) with an SSP file beside each.
 """
 from __future__ import annotations
 
@@ -12,41 +14,54 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent
-sys.path.insert(0, str(ROOT))
-
-from synthesis import scenarios  # noqa: E402
-from synthesis.export import build_slave, closed_loop_fmu, with_defaults, write_ssp  # noqa: E402
-
-FMU_DIR = ROOT / "fmus"
+FMU_DIR = Path(__file__).resolve().parent / "fmus"
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--validate", action="store_true", help="run fmpy's validation on each FMU")
     ap.add_argument("--out", type=Path, default=FMU_DIR, help="output folder (default fmus/)")
+    ap.add_argument("--system", nargs="+", metavar="STEM",
+                    help="build only these systems (default: all)")
     args = ap.parse_args(argv)
-    scenarios.load_all()
+    try:
+        from descent_fmus.synthesis.export import (build_slave, closed_loop_fmu, with_defaults,
+                                                   write_ssp)
+        from descent_fmus.synthesis.registry import SYSTEMS, get_system
+    except ImportError as exc:
+        print(f"build_fmus.py: cannot import descent_fmus ({exc}); install the project first: "
+              f"pip install -e .", file=sys.stderr)
+        return 2
+    try:
+        systems = [get_system(s) for s in (args.system or SYSTEMS)]
+    except KeyError as exc:
+        print(f"build_fmus.py: {exc.args[0]}", file=sys.stderr)
+        return 2
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
-    built = []
-    for script in scenarios.SLAVES:
-        t0 = time.perf_counter()
-        path = build_slave(ROOT / script, out)
-        built.append(path)
-        print(f"built {path.relative_to(ROOT) if path.is_relative_to(ROOT) else path} "
-              f"({time.perf_counter() - t0:.1f} s)")
-    for name, spec in scenarios.CLOSED_LOOPS.items():
-        w = spec.wiring
-        plant = out / f"{w.plant}.fmu"
-        ctrl = out / f"{spec.controller_fmu or w.controller}.fmu"
-        if spec.controller_defaults:
-            ctrl = with_defaults(out / f"{w.controller}.fmu", out / f"{name}Controller.fmu",
-                                 spec.controller_defaults)
-        fmu = closed_loop_fmu(w, plant, ctrl, out / f"{name}.fmu", parameters=spec.parameters)
-        ssp = write_ssp(w, plant, ctrl, out / f"{name}.ssp")
-        built.append(fmu)
-        print(f"built {fmu.name} and {ssp.name}")
+    built, done = [], set()
+    for system in systems:
+        for fmu_class in system.fmus:
+            if fmu_class in done:
+                continue
+            done.add(fmu_class)
+            t0 = time.perf_counter()
+            path = build_slave(fmu_class, out)
+            built.append(path)
+            print(f"built {path.name} ({time.perf_counter() - t0:.1f} s)")
+    for system in systems:
+        for spec in system.closed_loops:
+            w = spec.wiring
+            plant, ctrl = out / f"{w.plant}.fmu", out / f"{w.controller}.fmu"
+            if spec.controller_defaults is not None:
+                ctrl = with_defaults(ctrl, out / f"{w.name}Controller.fmu",
+                                     spec.controller_defaults())
+                built.append(ctrl)
+            fmu = closed_loop_fmu(w, plant, ctrl, out / f"{w.name}.fmu",
+                                  parameters=spec.parameters)
+            ssp = write_ssp(w, plant, ctrl, out / f"{w.name}.ssp")
+            built.append(fmu)
+            print(f"built {fmu.name} and {ssp.name}")
     if args.validate:
         from fmpy.validation import validate_fmu
         bad = 0

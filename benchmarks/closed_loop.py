@@ -18,10 +18,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from models.reentry import ReentryParams, deviations, simulate  # noqa: E402
-from synthesis.network_operator import NetworkOperator  # noqa: E402
-from synthesis.reentry_flight import fly, open_loop  # noqa: E402
-from synthesis.scenarios import reentry as spec  # noqa: E402
+from descent_fmus.models.reentry import ReentryParams, deviations, simulate  # noqa: E402
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator  # noqa: E402
+from descent_fmus.synthesis.systems.reentry.flight import fly, open_loop  # noqa: E402
+from descent_fmus.synthesis.scenarios import reentry as spec  # noqa: E402
 
 
 def timed(fn, repeat):

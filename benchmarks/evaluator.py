@@ -19,9 +19,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from synthesis.evaluator import Evaluator, get_problem  # noqa: E402
-from synthesis.ga import GAConfig  # noqa: E402
-from synthesis.synthesize import make_ga  # noqa: E402
+from descent_fmus.synthesis.evaluator import Evaluator, get_problem  # noqa: E402
+from descent_fmus.synthesis.methods.ga import GAConfig  # noqa: E402
+from descent_fmus.synthesis.synthesize import make_ga  # noqa: E402
 
 
 def laws(n: int, seed: int = 0):

@@ -16,8 +16,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from synthesis.evaluator import Evaluator, get_problem  # noqa: E402
-from synthesis.scenarios.lunar_descent import INITIAL_SET, fly_in_process  # noqa: E402
+from descent_fmus.synthesis.evaluator import Evaluator, get_problem  # noqa: E402
+from descent_fmus.synthesis.systems.lunar_descent.problems import INITIAL_SET, fly_in_process  # noqa: E402
 
 
 def main(argv=None) -> int:

@@ -22,10 +22,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from models.lunar_lander import optimal_landing  # noqa: E402
-from synthesis.landing import LandingLoops, dispersion, fly_feedback_in_process  # noqa: E402
-from synthesis.scenarios.lunar_landing import PAPER_GUESSES, landing_problem  # noqa: E402
-from synthesis.shooting import solve  # noqa: E402
+from descent_fmus.models.lunar_landing import optimal_landing  # noqa: E402
+from descent_fmus.synthesis.systems.lunar_landing.study import LandingLoops, dispersion, fly_feedback_in_process  # noqa: E402
+from descent_fmus.synthesis.systems.lunar_landing.problems import PAPER_GUESSES, landing_problem  # noqa: E402
+from descent_fmus.synthesis.methods.shooting import solve  # noqa: E402
 
 
 def timed(fn, repeat):

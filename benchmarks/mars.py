@@ -3,7 +3,7 @@
 Prints the median wall time of a controlled descent (660.5 s simulated, communication step
 0.05 s = 13 211 steps) for the averaged plant and the rigid-body plant, each through
 ``synthesis.cosim.ClosedLoop`` (fmpy, FMU instances reused: reset + start values per run), and the
-same functions in-process (``models.mars_capsule.simulate`` with the law of
+same functions in-process (``models.mars.simulate`` with the law of
 ``models.controllers.mars_bellman``); plus the container FMU run by ``fmpy.simulate_fmu``.
 No assertions (timings belong here, not in the tests).
 
@@ -22,11 +22,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from models.controllers import mars_bellman as mb  # noqa: E402
-from models.mars_capsule import MarsParams, simulate  # noqa: E402
-from models.mars_capsule_6dof import OUTPUTS6, flight  # noqa: E402
-from synthesis.cosim import ClosedLoop  # noqa: E402
-from synthesis.scenarios import mars as spec  # noqa: E402
+from descent_fmus.models.controllers import mars_bellman as mb  # noqa: E402
+from descent_fmus.models.mars import MarsParams, simulate  # noqa: E402
+from descent_fmus.models.mars_6dof import OUTPUTS6, flight  # noqa: E402
+from descent_fmus.synthesis.cosim import ClosedLoop  # noqa: E402
+from descent_fmus.synthesis.scenarios import mars as spec  # noqa: E402
 
 
 def timed(fn, repeat):

@@ -19,7 +19,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from synthesis.reorientation import (PAPER_ITERATIONS, PAPER_SECONDS, replay,  # noqa: E402
+from descent_fmus.synthesis.systems.telescope.reorientation import (PAPER_ITERATIONS, PAPER_SECONDS, replay,  # noqa: E402
                                      reorient)
 
 

@@ -15,7 +15,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from synthesis.landing import (LandingLoops, dispersion, dispersion_table,  # noqa: E402
+from descent_fmus.synthesis.systems.lunar_landing.study import (LandingLoops, dispersion, dispersion_table,  # noqa: E402
                                plot_dispersion, plot_solution, solve_landing)
 
 

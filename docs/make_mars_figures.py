@@ -21,9 +21,9 @@ import numpy as np
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from synthesis.cosim import ClosedLoop  # noqa: E402
-from synthesis.mars_flight import fly_set, plot_alpha  # noqa: E402
-from synthesis.scenarios import mars as spec  # noqa: E402
+from descent_fmus.synthesis.cosim import ClosedLoop  # noqa: E402
+from descent_fmus.synthesis.systems.mars.flight import fly_set, plot_alpha  # noqa: E402
+from descent_fmus.synthesis.scenarios import mars as spec  # noqa: E402
 
 DOCS = ROOT / "docs"
 

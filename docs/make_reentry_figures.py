@@ -18,15 +18,15 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from models.reentry import ReentryParams  # noqa: E402
-from synthesis.cosim import ClosedLoop  # noqa: E402
-from synthesis.evaluator import get_problem  # noqa: E402
-from synthesis.network_operator import NetworkOperator  # noqa: E402
-from synthesis.open_loop import Program  # noqa: E402
-from synthesis.reentry_flight import fly, open_loop  # noqa: E402
-from synthesis.robustness import program_start_values, program_wiring  # noqa: E402
-from synthesis.scenarios import reentry as spec  # noqa: E402
-from synthesis.synthesize import plot_front  # noqa: E402
+from descent_fmus.models.reentry import ReentryParams  # noqa: E402
+from descent_fmus.synthesis.cosim import ClosedLoop  # noqa: E402
+from descent_fmus.synthesis.evaluator import get_problem  # noqa: E402
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator  # noqa: E402
+from descent_fmus.synthesis.methods.open_loop import Program  # noqa: E402
+from descent_fmus.synthesis.systems.reentry.flight import fly, open_loop  # noqa: E402
+from descent_fmus.synthesis.systems.reentry.robustness import program_start_values, program_wiring  # noqa: E402
+from descent_fmus.synthesis.scenarios import reentry as spec  # noqa: E402
+from descent_fmus.synthesis.synthesize import plot_front  # noqa: E402
 
 DOCS = ROOT / "docs"
 

@@ -4,11 +4,15 @@ Each plant or controller FMU is a :class:`pythonfmu.Fmi2Slave` subclass that liv
 equations it wraps (``models/<system>.py``).  This module keeps the repetitive FMI variable
 registration in one place so that the FMU classes read like a table of their interface:
 
-* parameters (causality ``parameter``, variability ``fixed``) with their SI unit in the description
-  (pythonfmu has no unit attribute);
+* parameters (causality ``parameter``, variability ``fixed``) taken from the model's parameter
+  dataclass (:mod:`models.params`: default, unit and description written once), the unit in
+  brackets in the description (pythonfmu has no unit attribute; the build adds the attribute);
 * inputs (continuous Reals, start value required);
 * outputs (``initial=exact`` so that ``fmpy validate`` accepts them; Integer outputs are
-  ``discrete`` as FMI 2.0 requires).
+  ``discrete`` as FMI 2.0 requires);
+* the plant status convention: every plant publishes the Integer ``status``
+  (:data:`models.integrators.STATUS_DESCRIPTION`) and the Real ``t_end``
+  (:meth:`SlaveBase.status_outputs`).
 
 Parameter checks run in ``exit_initialization_mode``; a failed check raises
 :class:`ParameterError`, which pythonfmu reports through the FMU logger and turns into
@@ -17,7 +21,6 @@ Parameter checks run in ``exit_initialization_mode``; a failed check raises
 from __future__ import annotations
 
 import json
-import math
 import os
 from collections import OrderedDict
 from dataclasses import fields
@@ -25,29 +28,12 @@ from dataclasses import fields
 from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Integer, Real
 from pythonfmu.enums import Fmi2Initial
 
-from models.pythonfmu_compat import GUARDED_METHODS, keep_refs_on_error
+from descent_fmus.models.integrators import STATUS_DESCRIPTION, T_END_DESCRIPTION
+from descent_fmus.models.params import (ParameterError, description_of, require_finite,
+                                        require_positive)
+from descent_fmus.models.pythonfmu_compat import GUARDED_METHODS, keep_refs_on_error
 
 __all__ = ["ParameterError", "SlaveBase", "require_finite", "require_positive"]
-
-
-class ParameterError(ValueError):
-    """A parameter of an FMU (or of an in-process model) is out of its valid range."""
-
-
-def require_finite(name: str, value: float) -> float:
-    """Return ``float(value)`` or raise :class:`ParameterError` if it is NaN or infinite."""
-    value = float(value)
-    if not math.isfinite(value):
-        raise ParameterError(f"parameter {name} must be finite, got {value!r}")
-    return value
-
-
-def require_positive(name: str, value: float) -> float:
-    """Return ``float(value)`` or raise :class:`ParameterError` unless it is finite and > 0."""
-    value = require_finite(name, value)
-    if value <= 0.0:
-        raise ParameterError(f"parameter {name} must be > 0, got {value!r}")
-    return value
 
 
 def _template(var) -> dict:
@@ -157,14 +143,20 @@ class SlaveBase(Fmi2Slave):
                   lambda v, n=name: setattr(self, n, v), causality=Fmi2Causality.parameter,
                   variability=Fmi2Variability.fixed, description=description)
 
-    def parameters(self, descriptions) -> None:
-        """Real parameters named as fields of :attr:`params_class`, with its defaults.
+    def parameters(self, names=None) -> None:
+        """Real parameters from the fields of :attr:`params_class` (all, or ``names``).
 
-        ``descriptions`` is a sequence of (name, description with the unit in brackets).
+        Default, unit and description come from the dataclass (:func:`models.params.param`).
         """
-        defaults = self.params_class()
-        for name, desc in descriptions:
-            self.parameter(name, getattr(defaults, name), desc)
+        cls = self.params_class
+        defaults = cls()
+        for name in names or [f.name for f in fields(cls)]:
+            self.parameter(name, getattr(defaults, name), description_of(cls, name))
+
+    def status_outputs(self, status, t_end) -> None:
+        """The plant status convention: Integer ``status`` and Real ``t_end`` (getters)."""
+        self.int_output("status", STATUS_DESCRIPTION, getter=status)
+        self.output("t_end", T_END_DESCRIPTION, getter=t_end)
 
     def int_parameter(self, name: str, start: int, description: str, getter=None,
                       setter=None) -> None:

@@ -34,8 +34,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
-from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.integrators import DIVERGED, EVENT, advance_to
+from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
+from descent_fmus.models.integrators import DIVERGED, EVENT, advance_to
 
 __all__ = ["DescentParams", "rhs", "box_distance", "controller_inputs", "DescentIntegrator",
            "simulate", "LunarDescent", "U1_BOUNDS", "U2_BOUNDS", "T_PLUS", "G_TILDE",

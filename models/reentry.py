@@ -16,66 +16,65 @@ in-process code (tests, open-loop optimisation) call the same functions.
 
 References
 ----------
-Seed 000: A.I. Diveev, E.Yu. Shmalko, "Multicriterial structural-parametric synthesis of the
-control system for spacecraft descent by the network operator method", eqs. (1)-(8), (11)-(23).
+A.I. Diveev, E.Yu. Shmalko, "Multicriterial structural-parametric synthesis of the control
+system for spacecraft descent by the network operator method" (Vestnik RUDN), eqs. (1)-(8),
+(11)-(23).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 
-from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.integrators import DIVERGED, EVENT, advance_to
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.integrators import (EVENT, LEFT_DOMAIN, REACHED, DIVERGED, Integrator,
+                                             advance_to)
+from descent_fmus.models.params import ParameterError, Params, param
 
 __all__ = ["ReentryParams", "SECOND_SCENARIO", "rhs", "initial_state", "altitude", "downrange",
-           "deviations", "loads", "simulate", "Reentry", "U_BOUNDS", "T_PLUS"]
+           "deviations", "loads", "simulate", "ReentryIntegrator", "Reentry", "U_BOUNDS",
+           "T_PLUS"]
 
-#: Control bounds of SPEC S1 (relative change of drag).
+#: Control bounds (relative change of drag).
 U_BOUNDS = (-0.2, 0.2)
-#: Final time limit t+ [s] of SPEC S1.
+#: Final time limit t+ [s].
 T_PLUS = 300.0
 #: Default RK4 sub-step inside the FMU [s] (accuracy: see models/README.md).
 DT_INTEGRATION = 0.5
 
 
 @dataclass(frozen=True)
-class ReentryParams:
-    """Parameters of the S1 plant (SI units), defaults = the default scenario of SPEC S1."""
+class ReentryParams(Params):
+    """Parameters of the S1 plant (SI units); defaults = the default scenario.
 
-    m: float = 5000.0            #: capsule mass [kg]
-    S: float = 3.5               #: reference area [m^2]
-    rho0: float = 1.22           #: sea-level air density [kg/m^3]
-    lam: float = 1.35e-4         #: inverse density scale height [1/m]
-    g0: float = 9.81             #: surface gravity [m/s^2]
-    Rz: float = 6_371_000.0      #: Earth radius [m]
-    V0: float = 7500.0           #: entry speed [m/s]          ([choice], SPEC S1)
-    h0: float = 100_000.0        #: entry altitude [m]         ([choice], SPEC S1)
-    beta0: float = math.radians(-2.1)  #: entry path angle [rad] ([choice], SPEC S1)
-    hf: float = 10_000.0         #: final altitude [m]
-    Lf: float = 1_400_000.0      #: required down-range at hf [m]
+    The paper gives no entry conditions: V0, h0 and beta0 are our [choice] (models/README.md,
+    "S1 entry conditions").
+    """
 
-    def validate(self) -> "ReentryParams":
-        """Raise :class:`ParameterError` naming the first invalid parameter."""
-        for f in fields(self):
-            require_finite(f.name, getattr(self, f.name))
-        for name in ("m", "S", "rho0", "lam", "g0", "Rz", "V0", "h0", "Lf"):
-            require_positive(name, getattr(self, name))
+    m: float = param(5000.0, "kg", "capsule mass", positive=True)
+    S: float = param(3.5, "m2", "reference area", positive=True)
+    rho0: float = param(1.22, "kg/m3", "sea-level air density", positive=True)
+    lam: float = param(1.35e-4, "1/m", "inverse density scale height", positive=True)
+    g0: float = param(9.81, "m/s2", "surface gravity", positive=True)
+    Rz: float = param(6_371_000.0, "m", "Earth radius", positive=True)
+    V0: float = param(7500.0, "m/s", "entry speed", positive=True)
+    h0: float = param(100_000.0, "m", "entry altitude", positive=True)
+    beta0: float = param(math.radians(-2.1), "rad", "entry path angle")
+    hf: float = param(10_000.0, "m", "final altitude")
+    Lf: float = param(1_400_000.0, "m", "required down-range at hf", positive=True)
+
+    def check(self) -> None:
         if not 0.0 <= self.hf < self.h0:
             raise ParameterError(f"parameter hf must satisfy 0 <= hf < h0, got hf={self.hf}, "
                                  f"h0={self.h0}")
         if not -math.pi / 2 < self.beta0 < math.pi / 2:
             raise ParameterError(f"parameter beta0 must be in (-pi/2, pi/2) rad, got {self.beta0}")
-        return self
 
     def constants(self) -> tuple:
         """The argument tuple of :func:`rhs` after the control: (g0 Rz^2, S rho0/m, lam, Rz)."""
         return (self.g0 * self.Rz ** 2, self.S * self.rho0 / self.m, self.lam, self.Rz)
 
-    def with_(self, **changes) -> "ReentryParams":
-        return replace(self, **changes)
 
-
-#: SPEC S1's second scenario for robustness checks.
+#: The second scenario, for robustness checks ([choice], models/README.md).
 SECOND_SCENARIO = ReentryParams(V0=8000.0, h0=80_000.0, beta0=math.radians(-1.6))
 
 
@@ -111,7 +110,7 @@ def altitude(x, rz: float) -> float:
 
 
 def downrange(x, rz: float) -> float:
-    """Down-range L = Rz atan(x1/x3) [m] (eq. 12; SPEC S1 on the misprint of eq. 8)."""
+    """Down-range L = Rz atan(x1/x3) [m] (eq. 12; the paper's eq. 8 prints atan(x4/x2), a misprint)."""
     return rz * math.atan2(x[0], x[2])
 
 
@@ -149,31 +148,28 @@ def loads(x, dx, kd: float, lam: float, rz: float, g0: float, u: float):
     return load, aero
 
 
-class FlightIntegrator:
+class ReentryIntegrator(Integrator):
     """Advance the S1 plant with RK4 sub-steps, stop exactly at h = hf, track the maximum loads.
 
     The one integrator of the plant: the :class:`Reentry` FMU owns one, and in-process code
-    (:func:`simulate`) uses the same class.
+    (:func:`simulate`) uses the same class.  ``status`` becomes ``REACHED`` at h = hf and
+    ``LEFT_DOMAIN`` if the integration diverges.
     """
 
     def __init__(self, p: ReentryParams, dt: float = DT_INTEGRATION, trace: bool = False):
         self.p = p.validate()
-        #: list of (t, load) at every sample if ``trace`` (open-loop optimisation), else None
+        #: list of the load at every sample if ``trace`` (open-loop optimisation), else None
         self.trace = [] if trace else None
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ParameterError(f"integration step dt must be > 0, got {dt!r}")
-        self.dt = dt
         self.args = p.constants()
-        self.reset()
+        super().__init__(dt)
+
+    def initial_state(self) -> tuple:
+        return initial_state(self.p)
 
     def reset(self):
+        super().reset()
         if self.trace is not None:
             self.trace.clear()
-        self.t = 0.0
-        self.x = initial_state(self.p)
-        self.landed = False
-        self.diverged = False
-        self.t_land = math.nan
         self.load_max = 0.0
         self.aero_load_max = 0.0
         self.u = 0.0
@@ -191,7 +187,7 @@ class FlightIntegrator:
 
     def advance(self, t_end: float, u: float) -> None:
         """Integrate from ``self.t`` to ``t_end`` with the control held at ``u``."""
-        if self.landed or self.diverged:
+        if self.status:
             return
         args = (u,) + self.args
         rz_hf = self.p.Rz + self.p.hf
@@ -200,25 +196,24 @@ class FlightIntegrator:
             event=lambda y: math.hypot(y[0], y[2]) - rz_hf,
             on_step=lambda y, k1: self._sample(y, k1, u))
         if outcome == EVENT:
-            self.landed = True
-            self.t_land = self.t
+            self.end(REACHED, self.t)
             self._sample(self.x, rhs(self.x, *args), u)
         elif outcome == DIVERGED:
-            self.diverged = True
+            self.end(LEFT_DOMAIN, self.t)
         self.u = u
 
 
 def simulate(p: ReentryParams = ReentryParams(), control=lambda t, x: 0.0, step: float = 1.0,
              t_plus: float = T_PLUS, dt: float = DT_INTEGRATION,
-             trace: bool = False) -> FlightIntegrator:
+             trace: bool = False) -> ReentryIntegrator:
     """Fly S1 in-process with ``u = control(t, x)`` held over communication steps ``step`` [s].
 
-    Returns the finished :class:`FlightIntegrator` (``t_land``, ``x``, ``load_max``, and the
-    load at every sample in ``trace`` if requested).
+    Returns the finished :class:`ReentryIntegrator` (``status``, ``t_end``, ``x``,
+    ``load_max``, and the load at every sample in ``trace`` if requested).
     """
-    fi = FlightIntegrator(p, dt, trace)
+    fi = ReentryIntegrator(p, dt, trace)
     k = 0
-    while not fi.landed and not fi.diverged and fi.t < t_plus - 1e-9:
+    while fi.running and fi.t < t_plus - 1e-9:
         u = min(max(control(fi.t, fi.x), U_BOUNDS[0]), U_BOUNDS[1])
         k += 1
         fi.advance(min(k * step, t_plus), u)
@@ -231,17 +226,11 @@ class Reentry(SlaveBase):
     params_class = ReentryParams
 
     description = ("S1 Earth atmospheric descent of a capsule (planar, geocentric Cartesian); "
-                   "seed 000, Diveev & Shmalko")
+                   "Diveev & Shmalko")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.parameters([("m", "capsule mass [kg]"), ("S", "reference area [m2]"),
-                         ("rho0", "sea-level air density [kg/m3]"),
-                         ("lam", "inverse density scale height [1/m]"),
-                         ("g0", "surface gravity [m/s2]"), ("Rz", "Earth radius [m]"),
-                         ("V0", "entry speed [m/s]"), ("h0", "entry altitude [m]"),
-                         ("beta0", "entry path angle [rad]"), ("hf", "final altitude [m]"),
-                         ("Lf", "required down-range at hf [m]")])
+        self.parameters()
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.input("u", 0.0, "relative change of drag, clipped to [-0.2, 0.2] [1]")
         # Outputs are plain attributes refreshed once per step by _publish (cheap getters: the
@@ -257,14 +246,12 @@ class Reentry(SlaveBase):
         self.output("aero_load_max", "running maximum of aero_load [1]")
         self.output("y1", "relative altitude deviation from the line (0,h0)-(Lf,hf) [1]")
         self.output("y2", "path-angle deviation from the line to the target [rad]")
-        self.output("t_land", "time of the first h <= hf, -1 before [s]", start=-1.0)
-        self.int_output("landed", "1 from the first time h <= hf on (2 if the integration "
-                        "diverged) [1]")
+        self.status_outputs(lambda: self._fi.status, lambda: self._fi.t_end_output)
         self.apply_resource_defaults()
         self.prepare()
 
     def prepare(self) -> None:
-        self._fi = FlightIntegrator(self.params(), self.dt)
+        self._fi = ReentryIntegrator(self.params(), self.dt)
         self._publish()
 
     def _publish(self) -> None:
@@ -276,8 +263,6 @@ class Reentry(SlaveBase):
         self.load, self.aero_load = fi.load, fi.aero_load
         self.load_max, self.aero_load_max = fi.load_max, fi.aero_load_max
         self.y1, self.y2 = deviations(x, fi.p)
-        self.t_land = fi.t_land if fi.landed else -1.0
-        self.landed = 2 if fi.diverged else int(fi.landed)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         u = self.u

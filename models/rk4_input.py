@@ -1,6 +1,6 @@
 """RK4 with a control that is linear in time over the step (first-order hold), on tuples.
 
-Used by the telescope plants (S4) inside their FMUs and by :mod:`synthesis.direct_method`, so
+Used by the telescope plants (S4) inside their FMUs and by :mod:`synthesis.methods.direct_method`, so
 that the solver and the FMU replay integrate the same piecewise-linear control with the same
 formula (identical sub-steps give identical results to rounding).
 

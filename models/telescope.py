@@ -29,8 +29,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from models.rk4_input import propagate_linear_input
+from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
+from descent_fmus.models.rk4_input import propagate_linear_input
 from pythonfmu import Fmi2Causality
 
 __all__ = ["PHI", "GIMBAL_AXES", "TelescopeParams", "gimbal_vectors", "make_rigid_rhs",

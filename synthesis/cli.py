@@ -1,56 +1,200 @@
-"""Command line of descent-fmus: ``descent-fmus <command> ...`` (``--help`` lists them).
+"""Command line of descent-fmus.
 
-Each system contributes its sub-commands from a module of ``synthesis.commands`` that defines
-``register(subparsers)``; every command accepts ``--json`` for a machine-readable summary.
+One pattern: general commands act on any problem, system commands are
+``descent-fmus <system> <action>``::
+
+    descent-fmus synthesize NAME | --problem FILE.toml --out DIR   network-operator synthesis
+    descent-fmus problems                                          registered problems, systems
+    descent-fmus info SYSTEM                                       FMUs and parameter tables
+    descent-fmus reentry fly | bound | robustness
+    descent-fmus mars fly
+    descent-fmus lunar-landing solve | fly
+    descent-fmus telescope reorient
+    descent-fmus lunar-descent report
+
+Every command takes ``--json``; ``--plot FILE.png`` writes a figure (nothing is written unless
+asked).  A user error ends with one line and exit code 2.
 """
 from __future__ import annotations
 
 import argparse
-import importlib
+import os
 import sys
+from pathlib import Path
 
-# defined in synthesis.commands so that 'python -m synthesis.cli' and the installed script
-# share one class (a module run as __main__ is loaded twice)
-from synthesis.commands import CliError, emit  # noqa: F401
+from descent_fmus.synthesis.cli_common import (CliError, add_common_options, emit, fmu_folder,
+                                               nonnegative_int, positive_int)
 
-#: Modules that add sub-commands (one line per system).
-COMMAND_MODULES = [
-    "synthesis.commands.reentry",
-    "synthesis.commands.reorient",
-    "synthesis.commands.mars",
-    "synthesis.commands.land",
-    "synthesis.commands.synthesize",
-    "synthesis.commands.lunar_descent",
-]
+__all__ = ["main", "build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    ap = argparse.ArgumentParser(prog="descent-fmus", description=__doc__.splitlines()[0])
+    from descent_fmus.synthesis.registry import all_systems
+    ap = argparse.ArgumentParser(prog="descent-fmus", description=__doc__.splitlines()[0],
+                                 formatter_class=argparse.RawDescriptionHelpFormatter,
+                                 epilog="\n".join(__doc__.splitlines()[2:]))
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for name in COMMAND_MODULES:
-        importlib.import_module(name).register(sub)
+    _add_synthesize(sub)
+    p = sub.add_parser("problems", help="list the registered synthesis problems and systems")
+    add_common_options(p, fmus=False)
+    p.set_defaults(func=run_problems)
+    p = sub.add_parser("info", help="a system's FMUs, closed loops and parameter tables "
+                       "(Markdown)")
+    p.add_argument("system", help="system name (reentry, mars, lunar-landing, telescope, "
+                   "lunar-descent)")
+    add_common_options(p, fmus=False)
+    p.set_defaults(func=run_info)
+    for system in all_systems():
+        if system.add_commands is None:
+            continue
+        sp = sub.add_parser(system.cli_name, help=system.title)
+        actions = sp.add_subparsers(dest="action", required=True, metavar="ACTION")
+        system.add_commands(actions)
     return ap
 
 
+# -- synthesize -----------------------------------------------------------------------------------
+def _add_synthesize(sub) -> None:
+    p = sub.add_parser("synthesize", help="network-operator synthesis by the variational GA "
+                       "(the closed-loop FMU co-simulation is its evaluator)")
+    p.add_argument("name", nargs="?", help="registered problem (descent-fmus problems lists "
+                   "them); or give --problem FILE")
+    p.add_argument("--problem", type=Path, metavar="FILE.toml",
+                   help="a problem file for any FMI 2.0 co-simulation plant FMU")
+    g = p.add_argument_group("budget (default: the problem's own)")
+    g.add_argument("--population", type=positive_int, default=None)
+    g.add_argument("--generations", type=nonnegative_int, default=None)
+    g.add_argument("--crossovers", type=positive_int, default=None,
+                   help="crossover attempts per generation (4 children each)")
+    g.add_argument("--lchr", type=nonnegative_int, default=None,
+                   help="variations per individual (0 = parameter search of the basic law)")
+    g.add_argument("--epoch", type=positive_int, default=None,
+                   help="generations between changes of the basic solution")
+    g.add_argument("--seed", type=int, default=None, help="random seed; same seed, same result")
+    p.add_argument("--wide-ops", action="store_true",
+                   help="let variations use the authors' wider operation set (28 unary, 4 binary)")
+    p.add_argument("--workers", type=positive_int, default=2, help="local worker processes")
+    p.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT): evaluate on "
+                   "that cluster instead of local processes")
+    p.add_argument("--out", type=Path, default=Path("runs/synthesis"),
+                   help="output folder (default runs/synthesis)")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out")
+    p.add_argument("--no-export", action="store_true", help="skip exporting the Pareto laws")
+    p.add_argument("--no-reference", action="store_true",
+                   help="skip the problem's expensive report reference (reentry: the open-loop "
+                        "bound, ~20 s)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_common_options(p)
+    p.set_defaults(func=run_synthesize)
+
+
+def load_problem(args):
+    """The problem named on the command line or given as a file (CliError otherwise)."""
+    from descent_fmus.synthesis.problem_file import ProblemFileError, load_problem_file
+    from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
+    if (args.name is None) == (args.problem is None):
+        raise CliError("give a registered problem name or --problem FILE (one of them); "
+                       "'descent-fmus problems' lists the names")
+    if args.problem is not None:
+        try:
+            return load_problem_file(args.problem, fmu_dir=fmu_folder(args))
+        except ProblemFileError as exc:
+            raise CliError(str(exc)) from None
+    try:
+        return get_problem(args.name)
+    except UnknownProblemError as exc:
+        raise CliError(str(exc)) from None
+
+
+def run_synthesize(args) -> int:
+    from descent_fmus.synthesis.evaluator import SchedulerError
+    from descent_fmus.synthesis.paths import FMUNotFoundError
+    from descent_fmus.synthesis.synthesize import RunDirError, run_synthesis
+
+    problem = load_problem(args)
+    try:
+        budget = problem.budget.with_(population=args.population,
+                                      generations=args.generations,
+                                      crossovers=args.crossovers, lchr=args.lchr,
+                                      epoch=args.epoch, seed=args.seed)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    try:
+        summary = run_synthesis(problem, args.out, fmu_folder(args), budget,
+                                workers=args.workers, scheduler=args.scheduler,
+                                resume=args.resume, wide_ops=args.wide_ops,
+                                progress=not (args.quiet or args.json),
+                                export=not args.no_export, reference=not args.no_reference)
+    except (RunDirError, SchedulerError, FMUNotFoundError) as exc:
+        raise CliError(str(exc)) from None
+    short = {k: v for k, v in summary.items() if k != "pareto"}
+    lines = [f"synthesis of {problem.name}: {summary['generations']} generations, "
+             f"{summary['simulated']} closed-loop simulations in {summary['seconds']:.0f} s "
+             f"({summary['evaluations_per_second']:.0f}/s, {summary['failures']} failed), "
+             f"{summary['pareto_size']} Pareto laws",
+             f"  results in {args.out}: pareto.csv, pareto.json, pareto.png, summary.json"
+             + (", laws/<k>/" if not args.no_export else "")]
+    lines += problem.report.lines(summary)
+    emit(args, short, "\n".join(lines))
+    return 0
+
+
+# -- listings ---------------------------------------------------------------------------------------
+def run_problems(args) -> int:
+    from descent_fmus.synthesis.registry import all_systems
+    systems, problems = [], []
+    for s in all_systems():
+        systems.append({"system": s.cli_name, "title": s.title,
+                        "fmus": [f.split(":")[1] for f in s.fmus],
+                        "closed_loops": [c.wiring.name for c in s.closed_loops]})
+        for pb in (s.problems() if s.problems else ()):
+            problems.append({"problem": pb.name, "system": s.cli_name,
+                             "description": pb.description,
+                             "objectives": list(pb.objective_names),
+                             "initial_states": len(pb.initial_states)})
+    lines = ["synthesis problems (descent-fmus synthesize NAME; any plant FMU: --problem "
+             "FILE.toml):"]
+    lines += [f"  {p['problem']:16s} {p['description']}" for p in problems]
+    lines.append("systems (descent-fmus SYSTEM --help):")
+    lines += [f"  {s['system']:16s} {s['title']}" for s in systems]
+    emit(args, {"problems": problems, "systems": systems}, "\n".join(lines))
+    return 0
+
+
+def run_info(args) -> int:
+    from descent_fmus.synthesis.docs import system_info
+    from descent_fmus.synthesis.registry import get_system
+    try:
+        system = get_system(args.system)
+    except KeyError as exc:
+        raise CliError(exc.args[0]) from None
+    info, text = system_info(system)
+    emit(args, info, text)
+    return 0
+
+
 def main(argv=None) -> int:
-    from models.controllers.network_operator import MatrixError
-    from models.fmu_support import ParameterError
-    from synthesis.cosim import FMUError
+    # The command line chooses the matplotlib backend (files only); library code never does.
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    from descent_fmus.models.controllers.network_operator import MatrixError
+    from descent_fmus.models.params import ParameterError
+    from descent_fmus.synthesis.cosim import FMUError
 
     ap = build_parser()
     args = ap.parse_args(argv)
+    name = args.command + (f" {args.action}" if getattr(args, "action", None) else "")
     try:
         return int(args.func(args) or 0)
     except CliError as exc:
-        print(f"descent-fmus {args.command}: error: {exc}", file=sys.stderr)
+        print(f"descent-fmus {name}: error: {exc}", file=sys.stderr)
         return 2
     except (OSError, FMUError, ParameterError, MatrixError) as exc:
         # user-facing failures (a missing FMU or folder, a file that cannot be written, an FMU
         # rejecting a value): one line, no traceback
-        print(f"descent-fmus {args.command}: error: {exc}", file=sys.stderr)
+        print(f"descent-fmus {name}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        print(f"descent-fmus {args.command}: interrupted", file=sys.stderr)
+        print(f"descent-fmus {name}: interrupted", file=sys.stderr)
         return 130
 
 

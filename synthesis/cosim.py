@@ -26,16 +26,54 @@ from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2True)
 
-__all__ = ["Wiring", "ClosedLoop", "ClosedLoopResult", "FMUNotFoundError", "FMUError",
-           "load_slave"]
+from descent_fmus.synthesis.paths import FMUNotFoundError, require_fmu
 
-
-class FMUNotFoundError(FileNotFoundError):
-    """An FMU file the co-simulation needs does not exist (run ``python build_fmus.py``)."""
+__all__ = ["Wiring", "Stop", "STATUS_STOP", "ClosedLoop", "ClosedLoopResult",
+           "FMUNotFoundError", "FMUError", "load_slave"]
 
 
 class FMUError(RuntimeError):
     """An FMU call failed; the message carries what the FMU logged."""
+
+
+@dataclass(frozen=True)
+class Stop:
+    """When a flight ends before the stop time: plant output ``output`` compared with ``value``.
+
+    Attributes
+    ----------
+    output : str
+        A plant output (Real, Integer or Boolean).
+    op : {"!=", "<=", ">="}
+        The flight ends at the first communication point where ``output op value`` holds.
+    value : float
+    check_every : int
+        Read the output every this many steps (> 1 only for plants that freeze their state once
+        the condition holds, as the plants of this project do with their ``status``: the steps
+        after it change nothing).
+    """
+
+    output: str = "status"
+    op: str = "!="
+    value: float = 0.0
+    check_every: int = 1
+
+    def __post_init__(self):
+        if self.op not in ("!=", "<=", ">="):
+            raise ValueError(f"stop condition operator must be '!=', '<=' or '>=', got "
+                             f"{self.op!r}")
+        if self.check_every < 1:
+            raise ValueError(f"check_every must be >= 1, got {self.check_every}")
+
+    def holds(self, v: float) -> bool:
+        if self.op == "!=":
+            return v != self.value
+        return v <= self.value if self.op == "<=" else v >= self.value
+
+
+#: The plant status convention of this project: the flight ends when ``status`` is non-zero (the
+#: plant freezes then, so the flag need not be read every step).
+STATUS_STOP = Stop("status", "!=", 0.0, check_every=8)
 
 
 @dataclass(frozen=True)
@@ -59,8 +97,8 @@ class Wiring:
         Communication step [s].
     stop_time : float
         Final time t+ [s].
-    stop_flag : str or None
-        Integer plant output that ends the flight when non-zero (e.g. ``"landed"``).
+    stop : Stop or None
+        What ends a flight before ``stop_time`` (the plants of this project: :data:`STATUS_STOP`).
     exposed : tuple of (str, str, str)
         (container name, "plant" | "controller", component variable) shown by the container FMU.
     """
@@ -72,7 +110,7 @@ class Wiring:
     to_plant: tuple
     step: float
     stop_time: float
-    stop_flag: str | None = None
+    stop: Stop | None = None
     exposed: tuple = ()
     description: str = ""
 
@@ -87,10 +125,10 @@ class ClosedLoopResult:
         Communication points [s] up to the stop.
     outputs : dict of str -> ndarray
         Recorded plant outputs and controller outputs (``"ctrl." + name``) at ``time``.
-    final : dict of str -> float
-        Plant outputs at the end of the run (after the stop flag was raised).
+    final : dict of str -> float or int
+        Every plant output (Real, Integer, Boolean) at the end of the run.
     stopped : bool
-        True if the stop flag ended the run before ``stop_time``.
+        True if the stop condition ended the run before ``stop_time``.
     steps : int
         Communication steps taken.
     """
@@ -100,7 +138,6 @@ class ClosedLoopResult:
     final: dict
     stopped: bool
     steps: int
-    flag: int = 0
 
     def __getitem__(self, name):
         return self.outputs[name]
@@ -108,11 +145,11 @@ class ClosedLoopResult:
 
 def load_slave(path, instance_name: str, log: list | None = None) -> FMU2Slave:
     """Extract and instantiate an FMI 2.0 co-simulation FMU once (fmpy ``FMU2Slave``)."""
-    path = Path(path)
-    if not path.is_file():
-        raise FMUNotFoundError(f"FMU not found: {path} -- build the FMUs first with "
-                               f"'python build_fmus.py'")
+    path = require_fmu(path)
     md = read_model_description(str(path))
+    if md.fmiVersion != "2.0" or md.coSimulation is None:
+        raise FMUError(f"{path}: need an FMI 2.0 co-simulation FMU, got FMI {md.fmiVersion} "
+                       f"{'co-simulation' if md.coSimulation else 'model exchange only'}")
     unzipdir = extract(str(path))
     fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
                     modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
@@ -239,13 +276,21 @@ class ClosedLoop:
         self._pu_vr = (ctypes.c_uint * len(wiring.to_plant))(*[p.vr(b) for _, b in wiring.to_plant])
         self._y = (ctypes.c_double * len(wiring.to_controller))()
         self._u = (ctypes.c_double * len(wiring.to_plant))()
-        self._flag_vr = (ctypes.c_uint * 1)(p.vr(wiring.stop_flag)) if wiring.stop_flag else None
-        self._flag = (ctypes.c_int * 1)()
+        stop = wiring.stop
+        self._stop_vr = self._stop_type = None
+        if stop is not None:
+            sv = p.var(stop.output)
+            if sv.causality != "output":
+                raise KeyError(f"{p.md.modelName}: stop condition variable {stop.output!r} is "
+                               f"not an output")
+            self._stop_vr = (ctypes.c_uint * 1)(sv.valueReference)
+            self._stop_type = sv.type
+        self._stop_buf = ((ctypes.c_double if self._stop_type == "Real" else ctypes.c_int)
+                          * 1)()
         self.record = list(record)
-        #: read the stop flag every this many steps when not recording (see run())
-        self.flag_check_interval = 8
-        self._plant_out = [v.name for v in p.md.modelVariables
-                           if v.causality == "output" and v.type == "Real"]
+        self._plant_out = {t: [v for v in p.md.modelVariables
+                               if v.causality == "output" and v.type == t]
+                           for t in ("Real", "Integer", "Boolean")}
 
     def close(self):
         self.plant.free()
@@ -302,11 +347,12 @@ class ClosedLoop:
         pfn, cfn = pf._functions, cf._functions
         get_real_p, set_real_p, step_p = pfn["fmi2GetReal"], pfn["fmi2SetReal"], pfn["fmi2DoStep"]
         set_real_c, get_real_c, step_c = cfn["fmi2SetReal"], cfn["fmi2GetReal"], cfn["fmi2DoStep"]
-        get_int_p = pfn["fmi2GetInteger"]
         ny, nu = len(self._y), len(self._u)
         y_vr, x_vr, u_vr, pu_vr, y, u = (self._y_vr, self._x_vr, self._u_vr, self._pu_vr,
                                          self._y, self._u)
-        flag_vr, flag = self._flag_vr, self._flag
+        stop, stop_vr, stop_buf = w.stop, self._stop_vr, self._stop_buf
+        get_stop = pfn[{"Real": "fmi2GetReal", "Integer": "fmi2GetInteger",
+                        "Boolean": "fmi2GetBoolean"}.get(self._stop_type, "fmi2GetReal")]
 
         rec_names = [n for n in self.record if not n.startswith("ctrl.")] if record else []
         rec_vr = (ctypes.c_uint * len(rec_names))(*[self.plant.vr(n) for n in rec_names])
@@ -314,7 +360,7 @@ class ClosedLoop:
         times, rows_y, rows_u, rows_rec = [], [], [], []
 
         n_steps = int(math.ceil(t_end / h - 1e-9))
-        check = self.flag_check_interval
+        check = stop.check_every if stop is not None else 1
         stopped = False
         k = 0
         t = 0.0
@@ -337,12 +383,12 @@ class ClosedLoop:
                     if rec_names:
                         get_real_p(pc, rec_vr, len(rec_names), rec_buf)
                         rows_rec.append(tuple(rec_buf))
-                # The plant freezes once its stop flag is up, so the flag need not be read every
-                # step: steps after it change nothing. Read it every `check` steps (every step
-                # when recording, so that the trajectory ends at the stop).
-                if flag_vr is not None and (record or k % check == 0 or k == n_steps):
-                    get_int_p(pc, flag_vr, 1, flag)
-                    if flag[0]:
+                # A plant that freezes once its stop condition holds need not be read every
+                # step (Stop.check_every); every step when recording, so that the trajectory
+                # ends at the stop.
+                if stop_vr is not None and (record or k % check == 0 or k == n_steps):
+                    get_stop(pc, stop_vr, 1, stop_buf)
+                    if stop.holds(stop_buf[0]):
                         stopped = True
                         break
                 if k == n_steps:
@@ -354,8 +400,7 @@ class ClosedLoop:
             said = "; ".join(m.strip() for m in self.plant.log + self.ctrl.log if m.strip())
             raise FMUError(f"{w.name}: an FMU call failed at t = {t} s: " +
                            (said or str(exc))) from None
-        final_vals = self.plant.fmu.getReal([self.plant.vr(n) for n in self._plant_out])
-        final = dict(zip(self._plant_out, final_vals))
+        final = self._final_outputs()
         outputs = {}
         if record:
             arr_y = np.array(rows_y).reshape(len(times), ny)
@@ -369,4 +414,16 @@ class ClosedLoop:
                 for i, n in enumerate(rec_names):
                     outputs[n] = arr[:, i]
         return ClosedLoopResult(time=np.array(times), outputs=outputs, final=final,
-                                stopped=stopped, steps=k, flag=int(flag[0]) if flag_vr else 0)
+                                stopped=stopped, steps=k)
+
+    def _final_outputs(self) -> dict:
+        """Every plant output, by name (Reals as float, Integers and Booleans as int)."""
+        fmu, final = self.plant.fmu, {}
+        for kind, get in (("Real", fmu.getReal), ("Integer", fmu.getInteger),
+                          ("Boolean", fmu.getBoolean)):
+            vs = self._plant_out[kind]
+            if vs:
+                vals = get([v.valueReference for v in vs])
+                conv = float if kind == "Real" else int
+                final.update((v.name, conv(x)) for v, x in zip(vs, vals))
+        return final

@@ -1,6 +1,6 @@
 """Build and export FMUs: pythonfmu slaves, FMUs with new defaults, closed-loop container FMUs, SSP.
 
-* :func:`build_slave` -- a pythonfmu FMU from a module of ``models/`` (the ``models`` package is
+* :func:`build_slave` -- a pythonfmu FMU from a class of ``models/`` (the modules it needs are
   bundled in the FMU's resources, so the FMU runs on the same equations as in-process code).
 * :func:`with_defaults` -- a copy of a built FMU whose start values are replaced (XML and the
   ``resources/defaults.json`` the slave applies on instantiation).  An exported law *is* the generic
@@ -23,32 +23,77 @@ from xml.etree import ElementTree as ET
 import attrs
 from fmpy import read_model_description
 
-from synthesis.cosim import FMUNotFoundError, Wiring
+from descent_fmus.synthesis.cosim import Wiring
+from descent_fmus.synthesis.paths import require_fmu
 
-__all__ = ["build_slave", "with_defaults", "closed_loop_fmu", "write_ssp", "ROOT"]
+__all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp"]
 
-ROOT = Path(__file__).resolve().parent.parent
-MODELS = ROOT / "models"
-
-
-def _require(path: Path) -> Path:
-    path = Path(path)
-    if not path.is_file():
-        raise FMUNotFoundError(f"FMU not found: {path} -- build the FMUs first with "
-                               f"'python build_fmus.py'")
-    return path
+#: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
+MODELS = Path(__file__).resolve().parent.parent / "models"
+if not (MODELS / "fmu_support.py").is_file():      # installed: the sibling package
+    import descent_fmus.models as _models
+    MODELS = Path(_models.__file__).parent
 
 
-def build_slave(script: Path, dest_dir: Path) -> Path:
-    """Build the pythonfmu FMU of the Fmi2Slave class defined in ``script`` into ``dest_dir``."""
+def _model_imports(path: Path) -> set:
+    """Modules of descent_fmus.models that ``path`` imports (names relative to the package)."""
+    import ast
+    out = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        names = []
+        if isinstance(node, ast.ImportFrom) and node.module:
+            names = [node.module] + [f"{node.module}.{a.name}" for a in node.names]
+        elif isinstance(node, ast.Import):
+            names = [a.name for a in node.names]
+        for name in names:
+            if name.startswith("descent_fmus.models."):
+                rel = name[len("descent_fmus.models."):]
+                if (MODELS / (rel.replace(".", "/") + ".py")).is_file():
+                    out.add(rel)
+    return out
+
+
+def model_closure(module: str) -> list[str]:
+    """``module`` (relative to descent_fmus.models) and every models module it imports."""
+    todo, seen = [module], set()
+    while todo:
+        m = todo.pop()
+        if m in seen:
+            continue
+        path = MODELS / (m.replace(".", "/") + ".py")
+        if not path.is_file():
+            raise FileNotFoundError(f"no module descent_fmus.models.{m} ({path})")
+        seen.add(m)
+        todo.extend(_model_imports(path) - seen)
+    return sorted(seen)
+
+
+def build_slave(fmu_class: str, dest_dir: Path) -> Path:
+    """Build the pythonfmu FMU of ``"module:Class"`` (module relative to descent_fmus.models).
+
+    The FMU's entry script is a two-line module importing the class; its resources carry the
+    ``descent_fmus/models`` modules the class needs (a namespace package: in a Python that has
+    descent-fmus installed the two merge, they never shadow each other).
+    """
     from pythonfmu import FmuBuilder
 
-    script = Path(script).resolve()
+    module, cls = fmu_class.split(":")
     with tempfile.TemporaryDirectory(prefix="descent_fmus_") as tmp:
-        # Bundle a clean copy of the models package (no caches, no script duplicate issues).
-        pkg = Path(tmp) / "models"
-        shutil.copytree(MODELS, pkg, ignore=shutil.ignore_patterns("__pycache__", "*.pyc",
-                                                                    "README.md"))
+        tmp = Path(tmp)
+        pkg = tmp / "descent_fmus"
+        for m in model_closure(module):
+            parts = m.split(".")
+            target = pkg / "models" / Path(*parts).with_suffix(".py")
+            target.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(MODELS / Path(*parts).with_suffix(".py"), target)
+            for k in range(len(parts)):          # the __init__.py of every package on the way
+                init = Path(*parts[:k], "__init__.py")
+                (pkg / "models" / init).write_text((MODELS / init).read_text())
+        script = tmp / "entry" / f"{cls}.py"
+        script.parent.mkdir()
+        script.write_text(f'"""pythonfmu entry point of the {cls} FMU (written by '
+                          f'build_fmus.py)."""\nfrom descent_fmus.models.{module} import '
+                          f'{cls}  # noqa: F401\n')
         return Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
 
 
@@ -67,7 +112,7 @@ def with_defaults(src_fmu: Path, dst_fmu: Path, values: dict, description: str |
     The values are written into ``modelDescription.xml`` (what importers show) and into
     ``resources/defaults.json`` (what the slave applies when instantiated), so both agree.
     """
-    src_fmu, dst_fmu = _require(src_fmu), Path(dst_fmu)
+    src_fmu, dst_fmu = require_fmu(src_fmu), Path(dst_fmu)
     md = read_model_description(str(src_fmu))
     known = {v.name: v for v in md.modelVariables}
     unknown = [n for n in values if n not in known]
@@ -121,7 +166,7 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
     from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
                                         ModelVariable, Unknown)
 
-    plant_fmu, controller_fmu, dest = _require(plant_fmu), _require(controller_fmu), Path(dest)
+    plant_fmu, controller_fmu, dest = require_fmu(plant_fmu), require_fmu(controller_fmu), Path(dest)
     mds = {"plant": read_model_description(str(plant_fmu)),
            "controller": read_model_description(str(controller_fmu))}
     comps = {role: Component(name=role, filename=path, modelDescription=mds[role])
@@ -204,7 +249,7 @@ _SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
 
 def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path) -> Path:
     """Write an SSP 1.0 archive of the closed loop (SystemStructure.ssd + resources/*.fmu)."""
-    plant_fmu, controller_fmu, dest = _require(plant_fmu), _require(controller_fmu), Path(dest)
+    plant_fmu, controller_fmu, dest = require_fmu(plant_fmu), require_fmu(controller_fmu), Path(dest)
     ET.register_namespace("ssd", _SSD_NS)
     ET.register_namespace("ssc", _SSC_NS)
     q = lambda ns, tag: f"{{{ns}}}{tag}"  # noqa: E731

@@ -6,11 +6,11 @@ from fmpy import simulate_fmu
 from fmpy.ssp.ssd import read_ssd
 from fmpy.validation import validate_fmu
 
-from models.reentry import ReentryParams, downrange, simulate
-from synthesis.cosim import ClosedLoop, FMUNotFoundError
-from synthesis.network_operator import NetworkOperator
-from synthesis.reentry_flight import fly, open_loop
-from synthesis.scenarios import reentry as spec
+from descent_fmus.models.reentry import ReentryParams, downrange, simulate
+from descent_fmus.synthesis.cosim import ClosedLoop, FMUNotFoundError
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.systems.reentry.flight import fly, open_loop
+from descent_fmus.synthesis.scenarios import reentry as spec
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,7 @@ def test_closed_loop_equals_in_process_loop(loop):
     # master) must give the same numbers as the FMU co-simulation, to rounding
     law = NetworkOperator.basic_law()
     p = ReentryParams()
-    from models.reentry import deviations
+    from descent_fmus.models.reentry import deviations
     fi = simulate(p, lambda t, x: law(deviations(x, p))[0], step=spec.STEP)
     f = fly(law, loop=loop)
     assert f.objectives["J1"] == pytest.approx(fi.load_max, rel=1e-12)

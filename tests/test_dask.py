@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from synthesis.evaluator import Evaluator
-from synthesis.network_operator import NetworkOperator
+from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
 
 ROOT = Path(__file__).resolve().parent.parent
 

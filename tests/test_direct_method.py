@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from synthesis.direct_method import (BoundaryProblem, ConvergenceError, blend_window,
+from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, ConvergenceError, blend_window,
                                      fd_jacobian, simulate, solve)
 
 

@@ -15,9 +15,9 @@ ROOT = Path(__file__).resolve().parent.parent
 
 SCRIPT = """
 import gc
-from synthesis.cosim import ClosedLoop, FMUError
-from synthesis.scenarios import reentry, mars
-from synthesis.scenarios.lunar_landing import FEEDBACK_WIRING, PROGRAM_WIRING
+from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
+from descent_fmus.synthesis.scenarios import reentry, mars
+from descent_fmus.synthesis.systems.lunar_landing.problems import FEEDBACK_WIRING, PROGRAM_WIRING
 d = {d!r} + "/"
 cases = [
     (reentry.WIRING, "Reentry", "NetworkOperatorController",

@@ -14,17 +14,17 @@ import pytest
 from fmpy import simulate_fmu
 from scipy.integrate import solve_ivp
 
-from models.fmu_support import ParameterError
-from models.lunar_descent import (CRASHED, G_TILDE, IN_BOX, OUT_OF_DOMAIN, DescentParams,
+from descent_fmus.models.fmu_support import ParameterError
+from descent_fmus.models.lunar_descent import (CRASHED, G_TILDE, IN_BOX, OUT_OF_DOMAIN, DescentParams,
                                   simulate)
-from synthesis.cosim import ClosedLoop, FMUError
-from synthesis.evaluator import Evaluator, get_problem
-from synthesis.ga import GAConfig
-from synthesis.network_operator import NetworkOperator
-from synthesis.scenarios.lunar_descent import (INITIAL_SET, WIRING, fly_in_process,
+from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
+from descent_fmus.synthesis.evaluator import Evaluator, get_problem
+from descent_fmus.synthesis.methods.ga import GAConfig
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.systems.lunar_descent.problems import (INITIAL_SET, WIRING, fly_in_process,
                                                initial_states, objectives, per_state,
                                                synthesis_basic_law)
-from synthesis.synthesize import run_synthesis
+from descent_fmus.synthesis.synthesize import run_synthesis
 
 ROOT = Path(__file__).resolve().parent.parent
 REFERENCE_LAW = ROOT / "tests" / "reference" / "lunar_descent_law.json"
@@ -163,7 +163,7 @@ def test_stall_and_bad_input(fmu_dir):
 
 def test_report_cli(fmu_dir, tmp_path):
     def cli(*a):
-        return subprocess.run([sys.executable, "-m", "synthesis.cli", "lunar-descent-report",
+        return subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", "lunar-descent-report",
                                "--fmus", str(fmu_dir), *a], cwd=ROOT, capture_output=True,
                               text=True)
     r = cli("--law", str(REFERENCE_LAW), "--samples", "8", "--json")
@@ -181,9 +181,9 @@ def test_report_cli(fmu_dir, tmp_path):
 
 def test_synthesize_cli_takes_the_problem_budget(fmu_dir, tmp_path):
     # options not given on the command line come from SynthesisProblem.defaults["ga"]
-    from synthesis.scenarios.lunar_descent import GA_BUDGET
+    from descent_fmus.synthesis.systems.lunar_descent.problems import GA_BUDGET
     out = tmp_path / "run"
-    r = subprocess.run([sys.executable, "-m", "synthesis.cli", "synthesize", "lunar-descent",
+    r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize", "lunar-descent",
                         "--population", "6", "--generations", "0", "--workers", "1",
                         "--no-export", "--json", "--fmus", str(fmu_dir), "--out", str(out)],
                        cwd=ROOT, capture_output=True, text=True)

@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from models.controllers.landing_program import program_flow
-from models.lunar_lander import (InfeasibleLandingError, LanderIntegrator, LanderParams,
+from descent_fmus.models.controllers.lunar_landing_program import program_flow
+from descent_fmus.models.lunar_landing import (InfeasibleLandingError, LanderIntegrator, LanderParams,
                                  constant_flow_state, optimal_landing, switch_height)
-from synthesis.scenarios.lunar_landing import PAPER_TABLE2
+from descent_fmus.synthesis.systems.lunar_landing.problems import PAPER_TABLE2
 
 P = LanderParams()
 EXACT = optimal_landing(P)
@@ -98,7 +98,7 @@ def test_plant_integrator_matches_solve_ivp_through_the_optimal_program():
 # ------------------------------------------------------------------------- through the FMUs
 @pytest.fixture(scope="module")
 def loops(fmu_dir):
-    from synthesis.landing import LandingLoops
+    from descent_fmus.synthesis.systems.lunar_landing.study import LandingLoops
     with LandingLoops(fmu_dir) as lp:
         yield lp
 
@@ -117,7 +117,7 @@ def test_feedback_fmu_equals_the_in_process_law(loops):
     # touchdown (same floats in, same operations)
     td, _ = loops.fly("feedback", h0=140.0, V0=9.0, gL=1.60)
     p = P.with_(h0=140.0, V0=9.0, gL=1.60)
-    from synthesis.landing import fly_feedback_in_process
+    from descent_fmus.synthesis.systems.lunar_landing.study import fly_feedback_in_process
     fi, _ = fly_feedback_in_process(p)
     assert td.V_touchdown == pytest.approx(fi.V_touchdown, abs=1e-9)
     assert td.fuel == pytest.approx(P.m0 - fi.x[2], abs=1e-6)
@@ -125,7 +125,7 @@ def test_feedback_fmu_equals_the_in_process_law(loops):
 
 def test_dispersion_feedback_lands_softly_program_does_not(loops):
     # issue 4: seeded dispersion of h0, V0 (±10 %) and gL (±2 %) plus the 8 corners of the box
-    from synthesis.landing import dispersion, dispersion_table
+    from descent_fmus.synthesis.systems.lunar_landing.study import dispersion, dispersion_table
     rows = dispersion(loops, n=12, seed=2017)
     _, s = dispersion_table(rows)
     assert s["feedback"]["soft"] == len(rows)                 # every start: |V| < 0.05 m/s
@@ -168,8 +168,8 @@ def test_container_fmus_run_with_fmpy_simulate(fmu_dir, loops):
 
 
 def test_plant_fmu_rejects_bad_parameters(fmu_dir):
-    from synthesis.cosim import ClosedLoop, FMUError
-    from synthesis.scenarios.lunar_landing import FEEDBACK_WIRING
+    from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
+    from descent_fmus.synthesis.systems.lunar_landing.problems import FEEDBACK_WIRING
     loop = ClosedLoop(FEEDBACK_WIRING, fmu_dir / "LunarLander.fmu", fmu_dir / "LandingSwitch.fmu")
     try:
         with pytest.raises(FMUError, match="umax"):
@@ -182,7 +182,7 @@ def test_plant_fmu_rejects_bad_parameters(fmu_dir):
 
 # ------------------------------------------------------------------------- command line
 def test_cli_land_json_and_errors(capsys, tmp_path):
-    from synthesis.cli import main
+    from descent_fmus.synthesis.cli import main
     assert main(["land", "--json", "--plot", str(tmp_path / "fig.png")]) == 0
     out = json.loads(capsys.readouterr().out)
     assert round(out["T"], 4) == PAPER_TABLE2["T"]

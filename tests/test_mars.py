@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from models.controllers import mars_bellman as mb
-from models.fmu_support import ParameterError
-from models.mars_capsule import OUTPUTS, MarsParams, rhs, simulate
-from models.mars_capsule_6dof import OUTPUTS6, flight, initial_state6, rhs6
-from synthesis.cosim import ClosedLoop, FMUError, load_slave
-from synthesis.mars_flight import fly, open_loop
-from synthesis.scenarios import mars as spec
+from descent_fmus.models.controllers import mars_bellman as mb
+from descent_fmus.models.fmu_support import ParameterError
+from descent_fmus.models.mars import OUTPUTS, MarsParams, rhs, simulate
+from descent_fmus.models.mars_6dof import OUTPUTS6, flight, initial_state6, rhs6
+from descent_fmus.synthesis.cosim import ClosedLoop, FMUError, load_slave
+from descent_fmus.synthesis.systems.mars.flight import fly, open_loop
+from descent_fmus.synthesis.scenarios import mars as spec
 
 P = MarsParams()
 
@@ -320,7 +320,7 @@ def test_in_process_parameter_errors():
 
 # -- CLI ---------------------------------------------------------------------------------------
 def test_cli_json(fmu_dir, capsys):
-    from synthesis.cli import main
+    from descent_fmus.synthesis.cli import main
     assert main(["mars", "--json", "--fmus", str(fmu_dir)]) == 0
     out = json.loads(capsys.readouterr().out)
     none, law = out["runs"]
@@ -330,7 +330,7 @@ def test_cli_json(fmu_dir, capsys):
 
 
 def test_cli_missing_fmus(tmp_path, capsys):
-    from synthesis.cli import main
+    from descent_fmus.synthesis.cli import main
     assert main(["mars", "--fmus", str(tmp_path)]) == 2
     assert "build_fmus.py" in capsys.readouterr().err
 

@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-from models.controllers.network_operator import (BIG, L_MAX, UNARY, BINARY, MatrixError,
+from descent_fmus.models.controllers.network_operator import (BIG, L_MAX, UNARY, BINARY, MatrixError,
                                                  PAPER_Q)
-from synthesis.cosim import FMUError, load_slave
-from synthesis.network_operator import CapacityError, LawFileError, NetworkOperator
+from descent_fmus.synthesis.cosim import FMUError, load_slave
+from descent_fmus.synthesis.methods.network_operator import CapacityError, LawFileError, NetworkOperator
 
 
 def random_law(rng: np.random.Generator, L: int, nx: int = 2, nq: int = 2) -> NetworkOperator:
@@ -168,8 +168,8 @@ def test_malformed_law_file(tmp_path):
 
 
 def test_fmu_rejects_a_bad_matrix_with_its_reason(fmu_dir):
-    from synthesis.cosim import ClosedLoop
-    from synthesis.scenarios.reentry import WIRING
+    from descent_fmus.synthesis.cosim import ClosedLoop
+    from descent_fmus.synthesis.systems.reentry.problems import WIRING
     loop = ClosedLoop(WIRING, fmu_dir / "Reentry.fmu", fmu_dir / "NetworkOperatorController.fmu")
     try:
         with pytest.raises(FMUError, match="unknown unary operation 77 on arc 1->5"):

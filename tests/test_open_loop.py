@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from models.reentry import ReentryParams, downrange
-from synthesis.network_operator import NetworkOperator
-from synthesis.open_loop import Program, fly_program
-from synthesis.robustness import dispersion_samples, dispersion_study, plot_study
+from descent_fmus.models.reentry import ReentryParams, downrange
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.open_loop import Program, fly_program
+from descent_fmus.synthesis.systems.reentry.robustness import dispersion_samples, dispersion_study, plot_study
 
 
 @pytest.fixture(scope="module")
@@ -49,7 +49,7 @@ def test_the_blind_program_misses_under_dispersion(program, fmu_dir, tmp_path):
     assert prog["miss_median"] > 5_000.0
     assert study["stats"]["basic"]["landed_fraction"] == 1.0
     # every row is a flight through the FMUs: the nominal basic-law row equals fly()
-    from synthesis.reentry_flight import fly
+    from descent_fmus.synthesis.systems.reentry.flight import fly
     assert study["results"]["basic"][0]["J2"] == \
         fly(NetworkOperator.basic_law(), fmu_dir=fmu_dir).objectives["J2"]
 

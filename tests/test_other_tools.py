@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import pytest
 
-from synthesis.network_operator import NetworkOperator
-from synthesis.other_tools import EcosUnavailable, run_ecos
-from models.reentry import ReentryParams
-from synthesis.reentry_flight import open_loop
-from synthesis.scenarios import reentry as spec
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.other_tools import EcosUnavailable, run_ecos
+from descent_fmus.models.reentry import ReentryParams
+from descent_fmus.synthesis.systems.reentry.flight import open_loop
+from descent_fmus.synthesis.scenarios import reentry as spec
 
 
 def test_ecos_agrees_with_fmpy(fmu_dir, tmp_path):

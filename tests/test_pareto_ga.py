@@ -6,8 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from synthesis.ga import GAConfig, GrayCodec, StructureCodec, VariationalGA
-from synthesis.pareto import (crowding_distance, dominance_counts, hypervolume_2d, igd,
+from descent_fmus.synthesis.methods.ga import GAConfig, GrayCodec, StructureCodec, VariationalGA
+from descent_fmus.synthesis.methods.pareto import (crowding_distance, dominance_counts, hypervolume_2d, igd,
                               non_dominated, non_dominated_sort)
 
 

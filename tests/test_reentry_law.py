@@ -2,7 +2,7 @@
 run, docs/make_reentry_figures.py) flown through the FMUs: the issue's target numbers.
 
 Target (issue 3 / SPEC S1): miss < 1 km and J1 <= 1.03 x the best open-loop program's J1
-(computed here by synthesis.open_loop, N = 120).
+(computed here by synthesis.methods.open_loop, N = 120).
 """
 from __future__ import annotations
 
@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 from fmpy import simulate_fmu
 
-from synthesis.network_operator import NetworkOperator
-from synthesis.reentry_flight import fly
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.systems.reentry.flight import fly
 
 LAW = Path(__file__).parent / "reference" / "reentry_best_law.json"
 
@@ -38,8 +38,8 @@ def test_synthesised_law_meets_the_target(law, fmu_dir, open_loop_program):
 def test_law_as_fmu_start_values_runs_in_the_container(law, fmu_dir, tmp_path):
     # the law exported as an FMU (controller FMU with the law as defaults + container) gives the
     # same flight under fmpy simulate as the Python master
-    from synthesis.evaluator import get_problem
-    from synthesis.synthesize import export_law
+    from descent_fmus.synthesis.evaluator import get_problem
+    from descent_fmus.synthesis.synthesize import export_law
     out = export_law(get_problem("reentry"), law, fmu_dir, tmp_path / "law")
     res = simulate_fmu(out["closed_loop_fmu"], output=["L", "load_max", "landed"])
     o = fly(law, fmu_dir=fmu_dir).objectives

@@ -14,8 +14,8 @@ from fmpy import simulate_fmu
 from scipy.integrate import solve_ivp
 from scipy.optimize import minimize_scalar
 
-from models.fmu_support import ParameterError
-from models.reentry import (ReentryParams, altitude, downrange, initial_state, loads, rhs,
+from descent_fmus.models.fmu_support import ParameterError
+from descent_fmus.models.reentry import (ReentryParams, altitude, downrange, initial_state, loads, rhs,
                             simulate)
 
 P = ReentryParams()

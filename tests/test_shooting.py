@@ -1,7 +1,7 @@
 """The shooting solver (synthesis/shooting.py) on problems with known answers.
 
 Sources: seed 002 (Mozzhorina 2017) Tables 1-2 for the lunar landing; the closed-form optimum of
-the landing (models.lunar_lander.optimal_landing, itself checked against an independent
+the landing (models.lunar_landing.optimal_landing, itself checked against an independent
 solve_ivp run in tests/test_lunar_landing.py); dymos examples/moon_landing (m_f ~ 0.3953);
 a linear-quadratic problem with an analytic solution for the interior-control path.
 """
@@ -12,12 +12,12 @@ import math
 import numpy as np
 import pytest
 
-from models.lunar_lander import LanderParams, optimal_landing
-from synthesis.scenarios.lunar_landing import (MOON, PAPER_GUESSES, PAPER_INITIAL_NORMS,
+from descent_fmus.models.lunar_landing import LanderParams, optimal_landing
+from descent_fmus.synthesis.systems.lunar_landing.problems import (MOON, PAPER_GUESSES, PAPER_INITIAL_NORMS,
                                                PAPER_ITERATIONS,
                                                PAPER_TABLE2, landing_problem, moon_guess,
                                                moon_landing_problem, paper_guess)
-from synthesis.shooting import (PontryaginProblem, ShootingError, SingularJacobianError, integrate,
+from descent_fmus.synthesis.methods.shooting import (PontryaginProblem, ShootingError, SingularJacobianError, integrate,
                                 newton, solve)
 
 EXACT = optimal_landing()

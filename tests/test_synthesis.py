@@ -13,11 +13,11 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
-from synthesis.evaluator import Evaluator, SchedulerError, get_problem
-from synthesis.ga import GAConfig
-from synthesis.network_operator import NetworkOperator
-from synthesis.reentry_flight import fly
-from synthesis.synthesize import RunDirError, run_synthesis
+from descent_fmus.synthesis.evaluator import Evaluator, SchedulerError, get_problem
+from descent_fmus.synthesis.methods.ga import GAConfig
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.systems.reentry.flight import fly
+from descent_fmus.synthesis.synthesize import RunDirError, run_synthesis
 
 ROOT = Path(__file__).resolve().parent.parent
 SMALL = GAConfig(population=16, crossovers=6, lchr=4, epoch=3, elite_trim=2)
@@ -95,7 +95,7 @@ def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):
 def test_killed_cli_run_resumes(fmu_dir, tmp_path):
     # a real SIGKILL in the middle of a CLI run: resume loses at most one generation and
     # finishes with the same Pareto set as an uninterrupted run of the same seed
-    args = [sys.executable, "-m", "synthesis.cli", "synthesize", "reentry", "--population", "16",
+    args = [sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize", "reentry", "--population", "16",
             "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
             "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-bound",
             "--fmus", str(fmu_dir)]
@@ -164,7 +164,7 @@ def test_bad_input(fmu_dir, tmp_path):
 
 def test_cli_messages(fmu_dir, tmp_path):
     def cli(*a):
-        return subprocess.run([sys.executable, "-m", "synthesis.cli", *a], cwd=ROOT,
+        return subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", *a], cwd=ROOT,
                               capture_output=True, text=True)
     r = cli("synthesize", "nowhere", "--out", str(tmp_path / "x"))
     assert r.returncode == 2 and "unknown synthesis problem 'nowhere'" in r.stderr

@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from models.controllers.program_table import evaluate_program, program_values
-from models.flexible_telescope import (PanelParams, flexible_inertial_momentum,
+from descent_fmus.models.controllers.program_table import evaluate_program, program_values
+from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inertial_momentum,
                                        flexible_initial_state, make_flexible_rhs)
-from models.telescope import (INITIAL_STATE, TARGET_LAM, TARGET_W, TelescopeParams,
+from descent_fmus.models.telescope import (INITIAL_STATE, TARGET_LAM, TARGET_W, TelescopeParams,
                               envelope_radius, gyro_momentum, make_rigid_rhs,
                               required_gyro_momentum, rigid_jacobian, singularity_measure)
-from synthesis.reorientation import UnreachableTargetError, replay, reorient
+from descent_fmus.synthesis.systems.telescope.reorientation import UnreachableTargetError, replay, reorient
 
 TARGET = np.array(TARGET_LAM + TARGET_W)
 P = TelescopeParams()
@@ -170,7 +170,7 @@ def test_fmu_replay_with_a_coarser_communication_step(rigid, fmu_dir):
 
 
 def test_stored_programs_are_the_solver_output(rigid, flexible):
-    from synthesis.scenarios.telescope import stored_programs
+    from descent_fmus.synthesis.systems.telescope.wiring import stored_programs
     progs = stored_programs()
     for key, ro in (("rigid", rigid), ("flexible", flexible)):
         fresh = program_values(ro.T, ro.result.controls)
@@ -190,8 +190,8 @@ def test_closed_loop_container_fmu_flies_the_reorientation(fmu_dir):
 
 
 def test_fmu_rejects_a_non_unit_initial_quaternion(fmu_dir):
-    from synthesis.cosim import ClosedLoop, FMUError
-    from synthesis.scenarios.telescope import wiring
+    from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
+    from descent_fmus.synthesis.systems.telescope.wiring import wiring
     with ClosedLoop(wiring("Telescope"), fmu_dir / "Telescope.fmu",
                     fmu_dir / "ProgramController.fmu") as cl:
         with pytest.raises(FMUError, match="unit quaternion"):
@@ -199,7 +199,7 @@ def test_fmu_rejects_a_non_unit_initial_quaternion(fmu_dir):
 
 
 def test_cli_reorient_json(capsys):
-    from synthesis.cli import main
+    from descent_fmus.synthesis.cli import main
     assert main(["reorient", "--json"]) == 0
     s = json.loads(capsys.readouterr().out)
     assert s["iterations"] <= 5 and max(map(abs, s["final_errors"].values())) < 1e-7

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 
-from models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
+from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
 
 __all__ = ["CONSISTENT", "PAPER", "consistent_gain", "paper_gain", "gain", "control",
            "bellman_residual", "MarsBellmanController", "B", "C", "U_MAX", "THETA1"]

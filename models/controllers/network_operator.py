@@ -14,7 +14,7 @@ Every operation is overflow-safe: values are clamped to ``[-BIG, BIG]`` (BIG = 1
 "infinity") after every operation, and a NaN becomes 0, so the law never returns NaN or inf.
 
 This module is the one implementation of the operations and of the evaluation; it serves the
-:class:`NetworkOperatorController` FMU and ``synthesis.network_operator.NetworkOperator``.
+:class:`NetworkOperatorController` FMU and ``synthesis.methods.network_operator.NetworkOperator``.
 
 References
 ----------
@@ -27,7 +27,7 @@ import math
 
 from pythonfmu import Fmi2Causality, Fmi2Variability, Integer
 
-from models.fmu_support import ParameterError, SlaveBase
+from descent_fmus.models.fmu_support import ParameterError, SlaveBase
 
 __all__ = ["BIG", "UNARY", "BINARY", "UNIT", "UNARY_NAMES", "BINARY_NAMES", "compile_law",
            "evaluate", "NetworkOperatorController", "L_MAX", "NX_MAX", "NQ_MAX", "NU_MAX",
@@ -249,8 +249,10 @@ class NetworkOperatorController(SlaveBase):
     Interface (sizes fixed at build time): inputs ``x[1..NX_MAX]``; outputs ``u[1..NU_MAX]``;
     Integer parameters ``psi[i,j]`` (``i <= j``, upper triangle of an ``L_MAX``-node matrix),
     ``nx``, ``nq`` (source node counts), ``nu`` (outputs in use), ``out[k]`` (node of output k);
-    Real parameters ``q[1..NQ_MAX]``, ``u_min[k]``, ``u_max[k]``.  Defaults: the paper's basic
-    law ``u = clip(q1 y1 + q2 y2, -0.2, 0.2)`` with q1 = 2.259375, q2 = 1.953125.
+    Real parameters ``q[1..NQ_MAX]``, ``u_min[k]``, ``u_max[k]`` and the input scaling
+    ``x_scale[k]``, ``x_offset[k]`` (source node k holds ``x_scale[k] (x[k] - x_offset[k])``;
+    default 1 and 0).  Defaults: the paper's basic law ``u = clip(q1 y1 + q2 y2, -0.2, 0.2)``
+    with q1 = 2.259375, q2 = 1.953125.
 
     The outputs are computed lazily from the current inputs when read (a static law has direct
     feed-through), so a master reading ``u`` right after setting ``x`` gets ``phi(x)``.
@@ -269,6 +271,8 @@ class NetworkOperatorController(SlaveBase):
         self.q[:2] = PAPER_Q
         self.u_lo = [-0.2] * NU_MAX
         self.u_hi = [0.2] * NU_MAX
+        self.x_scale = [1.0] * NX_MAX
+        self.x_offset = [0.0] * NX_MAX
         self.out = [len(BASIC_LAW_PSI)] + [0] * (NU_MAX - 1)
         self._u = [0.0] * NU_MAX
         self._dirty = True
@@ -283,6 +287,10 @@ class NetworkOperatorController(SlaveBase):
         self.real_array("q", self.q, Fmi2Causality.parameter, "law parameter q [1]")
         self.real_array("u_min", self.u_lo, Fmi2Causality.parameter, "lower output bound [1]")
         self.real_array("u_max", self.u_hi, Fmi2Causality.parameter, "upper output bound [1]")
+        self.real_array("x_scale", self.x_scale, Fmi2Causality.parameter,
+                        "input scale: node k holds x_scale[k] (x[k] - x_offset[k]) [1]")
+        self.real_array("x_offset", self.x_offset, Fmi2Causality.parameter,
+                        "input offset (in the input's unit) [1]")
         for k in range(NU_MAX):
             self.int_parameter(f"out[{k + 1}]", 0, "node whose value is output k (0 = unused) [1]",
                                lambda k=k: self.out[k],
@@ -316,6 +324,10 @@ class NetworkOperatorController(SlaveBase):
         for k in range(self.nq):
             if not math.isfinite(self.q[k]):
                 raise ParameterError(f"parameter q[{k + 1}] must be finite, got {self.q[k]}")
+        for k in range(self.nx):
+            if not (math.isfinite(self.x_scale[k]) and math.isfinite(self.x_offset[k])):
+                raise ParameterError(f"x_scale[{k + 1}] = {self.x_scale[k]}, x_offset[{k + 1}] "
+                                     f"= {self.x_offset[k]}: need finite values")
         try:
             self._program = compile_law(self.psi, self.nx, self.nq, self.out[:self.nu])
         except MatrixError as exc:
@@ -323,10 +335,17 @@ class NetworkOperatorController(SlaveBase):
 
     def prepare(self) -> None:
         self._dirty = True
+        n = self.nx
+        self._scaling = None
+        if any(s != 1.0 for s in self.x_scale[:n]) or any(o != 0.0 for o in self.x_offset[:n]):
+            self._scaling = list(zip(self.x_scale[:n], self.x_offset[:n]))
 
     def _outputs(self):
         if self._dirty:
-            z = evaluate(self._program, self.x[:self.nx] + self.q[:self.nq])
+            x = self.x[:self.nx]
+            if self._scaling is not None:
+                x = [s * (v - o) for v, (s, o) in zip(x, self._scaling)]
+            z = evaluate(self._program, x + self.q[:self.nq])
             for k, v in enumerate(z):
                 lo, hi = self.u_lo[k], self.u_hi[k]
                 self._u[k] = lo if v < lo else (hi if v > hi else v)

@@ -23,7 +23,7 @@ import math
 
 from pythonfmu import Fmi2Causality, Fmi2Variability, Real
 
-from models.fmu_support import ParameterError, SlaveBase, require_positive
+from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_positive
 
 __all__ = ["ProgramController", "NODES_MAX", "N_CHANNELS", "program_values", "evaluate_program"]
 

@@ -1,0 +1,291 @@
+"""The :class:`NetworkOperator` type: a control law as matrix + parameters, validated.
+
+Evaluation uses the one implementation in :mod:`models.controllers.network_operator`, which is
+also what the ``NetworkOperatorController`` FMU runs, so a law evaluated here and the same law
+loaded into the FMU give identical outputs.
+
+References
+----------
+Seed 000 (Diveev & Shmalko); A.I. Diveev, E.A. Sofronova, Vestnik RUDN 2007 no. 4.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from descent_fmus.models.controllers.network_operator import (BASIC_LAW_PSI, BINARY, BINARY_NAMES, L_MAX,
+                                                 NQ_MAX, NU_MAX, NX_MAX, PAPER_Q, UNARY,
+                                                 UNARY_NAMES, MatrixError, compile_law, evaluate)
+
+__all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError", "PAPER_LAW_PSI"]
+
+
+class CapacityError(MatrixError):
+    """The law is larger than the generic controller FMU holds (sizes fixed at build time)."""
+
+
+class LawFileError(ValueError):
+    """A law file is not valid JSON or does not describe a valid network operator."""
+
+
+def _paper_law_psi():
+    """The paper's printed 16-node law (seed 000), rebuilt from its printed formula.
+
+    The printed matrix is OCR-damaged (a row with 15 entries, diagonal entries lost), so it is
+    rebuilt from the printed expression, which is complete:
+    z5 = q1*y1, z6 = -q2 + y2, z7 = z6*z5, z8 = z7, z9 = z8, z10 = z9 + rho8(y2), z11 = z10,
+    z12 = -z10, z13 = z12 + rho4(z11), z14 = z13 + rho9(y2), z15 = z14 + rho4(z9) + rho8(y1),
+    z16 = z15 - y1; nodes 1 y1, 2 y2, 3 q1, 4 q2.
+    """
+    psi = [[0] * 16 for _ in range(16)]
+    binary = {5: 2, 6: 1, 7: 2, 8: 1, 9: 1, 10: 1, 11: 1, 12: 1, 13: 1, 14: 1, 15: 1, 16: 1}
+    for node, op in binary.items():
+        psi[node - 1][node - 1] = op
+    arcs = [(1, 5, 1), (3, 5, 1), (2, 6, 1), (4, 6, 3), (6, 7, 1), (5, 7, 1), (7, 8, 1),
+            (8, 9, 1), (9, 10, 1), (2, 10, 8), (10, 11, 1), (10, 12, 3), (12, 13, 1),
+            (11, 13, 4), (13, 14, 1), (2, 14, 9), (14, 15, 1), (9, 15, 4), (1, 15, 8),
+            (15, 16, 1), (1, 16, 3)]
+    for i, j, op in arcs:
+        psi[i - 1][j - 1] = op
+    return psi
+
+
+PAPER_LAW_PSI = _paper_law_psi()
+
+
+@dataclass
+class NetworkOperator:
+    """A network-operator law ``u = clip(phi(x, q), u_min, u_max)``.
+
+    Parameters
+    ----------
+    psi : array-like of int, shape (L, L)
+        Upper-triangular matrix: binary operations on the diagonal, unary operations on arcs.
+    nx : int
+        Number of inputs (source nodes ``1..nx``).
+    q : sequence of float
+        Parameters (source nodes ``nx+1..nx+len(q)``).
+    outputs : sequence of int, optional
+        1-based output nodes (default: the last node).
+    bounds : sequence of (float, float), optional
+        Output bounds per output (default (-0.2, 0.2), SPEC S1).
+    input_names : sequence of str, optional
+        Names of the inputs for :meth:`formula` (default ``x1, x2, ...``).
+    input_scale, input_offset : sequence of float, optional
+        Source node k holds ``input_scale[k] (x[k] - input_offset[k])`` (default 1 and 0).
+
+    Raises
+    ------
+    MatrixError
+        Malformed matrix (not square, not upper-triangular, unknown operation, arcs into
+        sources), output nodes out of range, or non-finite parameters/bounds.
+    """
+
+    psi: np.ndarray
+    nx: int
+    q: list
+    outputs: list = field(default=None)
+    bounds: list = field(default=None)
+    input_names: list = field(default=None)
+    input_scale: list = field(default=None)
+    input_offset: list = field(default=None)
+
+    def __post_init__(self):
+        try:
+            psi = np.asarray(self.psi)
+        except Exception as exc:  # ragged lists
+            raise MatrixError(f"matrix is not a rectangular array: {exc}") from None
+        if psi.ndim != 2 or psi.shape[0] != psi.shape[1]:
+            raise MatrixError(f"matrix must be square (L x L), got shape {psi.shape}")
+        if psi.size and not np.all(np.isfinite(psi.astype(float))):
+            raise MatrixError("matrix has non-finite entries")
+        if psi.size and not np.all(psi == np.round(psi)):
+            raise MatrixError("matrix entries must be integers (operation numbers)")
+        self.psi = psi.astype(int)
+        L = self.psi.shape[0]
+        self.q = [float(v) for v in self.q]
+        for k, v in enumerate(self.q):
+            if not math.isfinite(v):
+                raise MatrixError(f"parameter q{k + 1} must be finite, got {v}")
+        if self.outputs is None:
+            self.outputs = [L]
+        self.outputs = [int(o) for o in self.outputs]
+        if self.bounds is None:
+            self.bounds = [(-0.2, 0.2)] * len(self.outputs)
+        self.bounds = [(float(lo), float(hi)) for lo, hi in self.bounds]
+        if len(self.bounds) != len(self.outputs):
+            raise MatrixError(f"{len(self.outputs)} outputs but {len(self.bounds)} bounds")
+        for k, (lo, hi) in enumerate(self.bounds):
+            if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
+                raise MatrixError(f"bounds of output {k + 1} must be finite with lo <= hi, "
+                                  f"got ({lo}, {hi})")
+        if self.input_names is None:
+            self.input_names = [f"x{k + 1}" for k in range(self.nx)]
+        self.input_scale = [1.0] * self.nx if self.input_scale is None else \
+            [float(v) for v in self.input_scale]
+        self.input_offset = [0.0] * self.nx if self.input_offset is None else \
+            [float(v) for v in self.input_offset]
+        for what, vals in (("input_scale", self.input_scale), ("input_offset", self.input_offset)):
+            if len(vals) != self.nx or not all(math.isfinite(v) for v in vals):
+                raise MatrixError(f"{what} must hold {self.nx} finite values, got {vals}")
+        self._compile()
+
+    def _compile(self):
+        self._program = compile_law(self.psi.tolist(), self.nx, len(self.q), self.outputs)
+        self._scaled = any(s != 1.0 for s in self.input_scale) or \
+            any(o != 0.0 for o in self.input_offset)
+
+    # the compiled program holds the operations (functions): rebuilt after unpickling
+    def __getstate__(self):
+        d = dict(self.__dict__)
+        d.pop("_program", None)
+        return d
+
+    def __setstate__(self, d):
+        self.__dict__.update(d)
+        self._compile()
+
+    # -- constructors ---------------------------------------------------------------------
+    @classmethod
+    def basic_law(cls, q=PAPER_Q, size: int = 16) -> "NetworkOperator":
+        """The paper's basic law ``u = clip(q1 y1 + q2 y2, -0.2, 0.2)`` (seed 000 eq. 24-25).
+
+        ``size`` pads the matrix with unused nodes (room for the GA's variations); the output is
+        node 7.
+        """
+        n0 = len(BASIC_LAW_PSI)
+        psi = np.zeros((max(size, n0), max(size, n0)), dtype=int)
+        psi[:n0, :n0] = BASIC_LAW_PSI
+        return cls(psi, nx=2, q=list(q), outputs=[n0], input_names=["y1", "y2"])
+
+    @classmethod
+    def paper_law(cls) -> "NetworkOperator":
+        """The paper's found 16-node law with q1 = 2.259375, q2 = 1.953125 (seed 000)."""
+        return cls(np.array(PAPER_LAW_PSI), nx=2, q=list(PAPER_Q), input_names=["y1", "y2"])
+
+    # -- evaluation -----------------------------------------------------------------------
+    @property
+    def size(self) -> int:
+        return self.psi.shape[0]
+
+    def raw(self, x) -> list:
+        """Output node values before clipping (inputs in the plant's units, scaled here)."""
+        x = list(x)
+        if self._scaled:
+            x = [s * (v - o) for v, s, o in zip(x, self.input_scale, self.input_offset)]
+        return evaluate(self._program, x + self.q)
+
+    def __call__(self, x) -> list:
+        """The control: output node values clipped to their bounds (what the FMU outputs)."""
+        return [lo if v < lo else (hi if v > hi else v)
+                for v, (lo, hi) in zip(self.raw(x), self.bounds)]
+
+    # -- FMU interface --------------------------------------------------------------------
+    def start_values(self) -> dict:
+        """Start values that load this law into the generic NetworkOperatorController FMU.
+
+        Raises
+        ------
+        CapacityError
+            If the law has more nodes, inputs, parameters or outputs than the FMU holds.
+        """
+        L = self.size
+        for what, n, cap in (("nodes", L, L_MAX), ("inputs", self.nx, NX_MAX),
+                             ("parameters", len(self.q), NQ_MAX),
+                             ("outputs", len(self.outputs), NU_MAX)):
+            if n > cap:
+                raise CapacityError(f"the law has {n} {what}; the NetworkOperatorController "
+                                    f"FMU holds at most {cap} (sizes are fixed at build time)")
+        vals = {"nx": self.nx, "nq": len(self.q), "nu": len(self.outputs)}
+        for i in range(L_MAX):
+            for j in range(i, L_MAX):
+                vals[f"psi[{i + 1},{j + 1}]"] = int(self.psi[i, j]) if j < L else 0
+        for k in range(NQ_MAX):
+            vals[f"q[{k + 1}]"] = self.q[k] if k < len(self.q) else 0.0
+        for k in range(NU_MAX):
+            lo, hi = self.bounds[k] if k < len(self.outputs) else (0.0, 0.0)
+            vals[f"u_min[{k + 1}]"], vals[f"u_max[{k + 1}]"] = lo, hi
+            vals[f"out[{k + 1}]"] = self.outputs[k] if k < len(self.outputs) else 0
+        for k in range(NX_MAX):
+            vals[f"x_scale[{k + 1}]"] = self.input_scale[k] if k < self.nx else 1.0
+            vals[f"x_offset[{k + 1}]"] = self.input_offset[k] if k < self.nx else 0.0
+        return vals
+
+    # -- persistence ----------------------------------------------------------------------
+    def to_dict(self) -> dict:
+        d = {"psi": self.psi.tolist(), "nx": self.nx, "q": self.q, "outputs": self.outputs,
+             "bounds": [list(b) for b in self.bounds], "input_names": self.input_names}
+        if self._scaled:
+            d["input_scale"], d["input_offset"] = self.input_scale, self.input_offset
+        d["formula"] = self.formula()
+        return d
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "NetworkOperator":
+        try:
+            return cls(np.array(d["psi"]), nx=int(d["nx"]), q=d["q"], outputs=d.get("outputs"),
+                       bounds=d.get("bounds"), input_names=d.get("input_names"),
+                       input_scale=d.get("input_scale"), input_offset=d.get("input_offset"))
+        except KeyError as exc:
+            raise LawFileError(f"law is missing the field {exc.args[0]!r}") from None
+        except MatrixError as exc:
+            raise LawFileError(str(exc)) from None
+        except (TypeError, ValueError) as exc:
+            raise LawFileError(f"malformed law: {exc}") from None
+
+    def save(self, path) -> Path:
+        path = Path(path)
+        path.write_text(json.dumps(self.to_dict(), indent=1))
+        return path
+
+    @classmethod
+    def load(cls, path) -> "NetworkOperator":
+        try:
+            d = json.loads(Path(path).read_text())
+        except json.JSONDecodeError as exc:
+            raise LawFileError(f"{path} is not valid JSON: {exc}") from None
+        if not isinstance(d, dict):
+            raise LawFileError(f"{path} must hold a JSON object")
+        return cls.from_dict(d)
+
+    def with_q(self, q) -> "NetworkOperator":
+        q = list(q)
+        if len(q) != len(self.q):
+            raise MatrixError(f"the law has {len(self.q)} parameters, got {len(q)}")
+        return NetworkOperator(self.psi.copy(), self.nx, q, list(self.outputs), list(self.bounds),
+                               list(self.input_names), list(self.input_scale),
+                               list(self.input_offset))
+
+    # -- readable form --------------------------------------------------------------------
+    def formula(self, digits: int = 6) -> str:
+        """A readable expression of the (first) output, e.g. ``(q1*y1)+(q2*y2)``."""
+        L, ns = self.size, self.nx + len(self.q)
+        expr = [None] * L
+        for k in range(self.nx):
+            expr[k] = self.input_names[k]
+        for k in range(len(self.q)):
+            expr[self.nx + k] = f"{self.q[k]:.{digits}g}"
+        terms = [[] for _ in range(L)]
+        for i in range(L):
+            for j in range(i + 1, L):
+                if self.psi[i, j] and self.psi[j, j]:
+                    terms[j].append(UNARY_NAMES[self.psi[i, j]].format(expr[i] or "0"))
+            if i + 1 < L:
+                j = i + 1
+                if j >= ns:
+                    b = self.psi[j, j]
+                    if b and terms[j]:
+                        expr[j] = terms[j][0] if len(terms[j]) == 1 else \
+                            (BINARY_NAMES[b].join(terms[j]) if b in (1, 2) else
+                             f"{BINARY_NAMES[b]}(" + ", ".join(terms[j]) + ")")
+                        if len(terms[j]) > 1:
+                            expr[j] = f"({expr[j]})"
+                    else:
+                        expr[j] = None
+        outs = [expr[o - 1] or "0" for o in self.outputs]
+        return outs[0] if len(outs) == 1 else "; ".join(outs)
+

@@ -1,0 +1,20 @@
+"""S1 -- Earth atmospheric descent: network-operator synthesis of a feedback law u = phi(y, q).
+
+Files of this system: ``models/reentry.py`` (equations, the Reentry FMU), this package
+(``problems`` wiring and synthesis problems, ``flight`` closed-loop flights and plots, ``bound``
+the best open-loop program, ``robustness`` the dispersion study, ``cli`` its commands), and
+``tests/test_reentry_*.py``.  The generic pieces it uses: the NetworkOperatorController and
+ProgramController FMUs, ``synthesis.methods`` (network operator, GA, open loop).
+"""
+from descent_fmus.synthesis.registry import ClosedLoopSpec, System
+from descent_fmus.synthesis.systems.reentry import cli, problems
+
+SYSTEM = System(
+    stem="reentry",
+    title="S1 Earth reentry: network-operator synthesis of a feedback law (min load, miss)",
+    fmus=("reentry:Reentry", "controllers.network_operator:NetworkOperatorController",
+          "controllers.program_table:ProgramController"),
+    closed_loops=(ClosedLoopSpec(problems.WIRING, parameters=problems.LOOP_PARAMETERS),),
+    problems=problems.problems,
+    add_commands=cli.add_commands,
+)

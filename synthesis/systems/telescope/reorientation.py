@@ -1,0 +1,315 @@
+"""S4 reorientation of the orbital telescope by the direct method (rigid and flexible models).
+
+* :func:`reorient` -- checks that the target is inside the CMG momentum envelope, then solves
+  SPEC S4 with :func:`synthesis.methods.direct_method.solve` (rigid model; or the flexible model with
+  the *reduced* algorithm: linearise the rigid model, close the miss on the flexible one);
+* :func:`path_metrics` -- invariant drift, singularity measure along the path;
+* :func:`replay` -- fly the computed program through the FMUs with fmpy (ProgramController +
+  Telescope / FlexibleTelescope) and compare with the target;
+* :func:`plot_reorientation` -- PNGs of u(t), w(t), lam(t), beta(t), the singularity measure and
+  the miss per iteration.
+
+``python -m synthesis.systems.telescope.reorientation --write-programs`` stores the SPEC S4 programs used as the
+defaults of the closed-loop FMUs (synthesis/scenarios/telescope_programs.json).
+
+References
+----------
+Seed 003: S.A. Voronov, PhD thesis (2009), ch. 2, Examples 1-2; SPEC S4.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inertial_momentum,
+                                       flexible_initial_state, make_flexible_rhs)
+from descent_fmus.models.telescope import (INITIAL_STATE, TARGET_LAM, TARGET_W, T_DEFAULT, DT_INTEGRATION,
+                              TelescopeParams, envelope_radius, inertial_momentum,
+                              make_rigid_rhs, required_gyro_momentum, rigid_jacobian,
+                              singularity_measure)
+from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, DirectResult, LinearModel, simulate,
+                                     solve)
+
+__all__ = ["UnreachableTargetError", "Reorientation", "reorient", "check_reachable",
+           "path_metrics", "replay", "plot_reorientation", "rigid_problem", "flexible_problem",
+           "GRID_STEP", "PAPER_SECONDS", "PAPER_ITERATIONS"]
+
+#: Control grid spacing [s] ([choice]: 40 intervals over the SPEC's 40 s).
+GRID_STEP = 1.0
+#: The thesis' figures for the rigid case (seed 003, Example 1).
+PAPER_SECONDS = 1.7
+PAPER_ITERATIONS = 5
+
+
+class UnreachableTargetError(ValueError):
+    """The end state needs a gyro momentum outside the CMG envelope (no control can reach it)."""
+
+
+def check_reachable(x0, lam_f, w_f, p: TelescopeParams, margin: float = 1.0) -> dict:
+    """Raise :class:`UnreachableTargetError` if the target needs |k| beyond the envelope.
+
+    The inertial momentum K is conserved, so at T the gyros must hold
+    ``k_f = R(lam_f)^T K - I w_f``; along its direction e the six gyros reach at most
+    ``h sum_j sqrt(1 - (e.g_j)^2)`` (:func:`models.telescope.envelope_radius`).  Checked before
+    iterating, so an impossible target is a message, not a diverging loop.
+    """
+    nrm = float(np.linalg.norm(lam_f))
+    if not math.isfinite(nrm) or abs(nrm - 1.0) > 1e-9:
+        raise UnreachableTargetError(f"target quaternion must have unit norm, |lam_f| = {nrm}")
+    kf = required_gyro_momentum(x0, lam_f, w_f, p)
+    need = float(np.linalg.norm(kf))
+    limit = envelope_radius(kf, p) if need > 0 else 6 * p.h
+    if need >= margin * limit:
+        raise UnreachableTargetError(
+            f"the target needs a gyro angular momentum of {need:.1f} N m s along "
+            f"({kf[0] / need:+.3f}, {kf[1] / need:+.3f}, {kf[2] / need:+.3f}) but the six "
+            f"gyros reach at most {limit:.1f} N m s in that direction (6h = {6 * p.h:.0f}): "
+            "lower the final body rate or change the target attitude")
+    return dict(k_required=need, envelope=limit, fraction=need / limit)
+
+
+def rigid_problem(p: TelescopeParams, T: float, lam_f, w_f, x0=INITIAL_STATE,
+                  grid_step: float = GRID_STEP, dt: float = DT_INTEGRATION) -> BoundaryProblem:
+    n = max(2, int(round(T / grid_step)))
+    m = max(2, 2 * int(math.ceil(T / n / dt / 2 - 1e-9)))
+    return BoundaryProblem(rhs=make_rigid_rhs(p), x0=tuple(x0), tf=T, target_index=tuple(range(7)),
+                           target_value=tuple(lam_f) + tuple(w_f), n_u=6, intervals=n,
+                           substeps=m, jac=rigid_jacobian(p))
+
+
+def flexible_problem(p: TelescopeParams, pp: PanelParams, T: float, lam_f, w_f,
+                     x0=INITIAL_STATE, grid_step: float = GRID_STEP,
+                     dt: float = DT_INTEGRATION) -> BoundaryProblem:
+    rp = rigid_problem(p, T, lam_f, w_f, x0, grid_step, dt)
+    return BoundaryProblem(rhs=make_flexible_rhs(p, pp), x0=flexible_initial_state(x0), tf=T,
+                           target_index=rp.target_index, target_value=rp.target_value, n_u=6,
+                           intervals=rp.intervals, substeps=rp.substeps)
+
+
+@dataclass
+class Reorientation:
+    """A solved S4 reorientation: the direct-method result plus path metrics.
+
+    ``rigid_on_flexible_miss`` (flexible case only): max end error of the rigid model's
+    solution flown on the flexible model -- why the reduced algorithm is needed.
+    """
+
+    flexible: bool
+    T: float
+    tol: float
+    result: DirectResult
+    metrics: dict
+    reach: dict
+    params: TelescopeParams
+    panels: PanelParams | None = None
+    rigid_on_flexible_miss: float | None = None
+    warm_iterations: int | None = None
+    extra: dict = field(default_factory=dict)
+
+    def summary(self) -> dict:
+        r = self.result
+        s = dict(model="flexible" if self.flexible else "rigid", T=self.T, tol=self.tol,
+                 success=r.success, iterations=r.iterations,
+                 miss_per_iteration=[h["max_miss"] for h in r.history],
+                 selected_per_iteration=[h["selected"] for h in r.history[1:]],
+                 seconds=r.seconds, paper_seconds=PAPER_SECONDS,
+                 paper_iterations=PAPER_ITERATIONS,
+                 final_errors=dict(zip(["lam0", "lam1", "lam2", "lam3", "w1", "w2", "w3"],
+                                       map(float, r.miss))),
+                 u_start=[float(v) for v in r.controls[0]],
+                 u_end=[float(v) for v in r.controls[-1]],
+                 u_max_abs=float(np.max(np.abs(r.controls))),
+                 k_required=self.reach["k_required"], envelope=self.reach["envelope"])
+        s.update(self.metrics)
+        if self.flexible:
+            s["rigid_solution_on_flexible_miss"] = self.rigid_on_flexible_miss
+            s["iterations_from_rigid_solution"] = self.warm_iterations
+        s.update(self.extra)
+        return s
+
+
+def path_metrics(res: DirectResult, p: TelescopeParams, pp: PanelParams | None = None) -> dict:
+    """|lam| and inertial-momentum drift, singularity measure along the solution's sub-steps."""
+    X = res.states
+    lam_dev = float(np.max(np.abs(np.linalg.norm(X[:, :4], axis=1) - 1.0)))
+    if pp is None:
+        K = np.array([inertial_momentum(x, p) for x in X])
+    else:
+        K = np.array([flexible_inertial_momentum(x, p, pp) for x in X])
+    dK = float(np.max(np.linalg.norm(K - K[0], axis=1)))
+    sing = np.array([singularity_measure(x[7:13], p) for x in X])
+    i = int(np.argmin(sing))
+    out = dict(lam_norm_drift=lam_dev, momentum_drift=dK,
+               momentum_drift_relative=dK / float(np.linalg.norm(K[0])),
+               K0=[float(v) for v in K[0]], sing_min=float(sing[i]), sing_min_time=float(res.t[i]),
+               sing_start=float(sing[0]), sing_end=float(sing[-1]), sing_max_possible=8.0)
+    if pp is not None:
+        out["eta_max"] = float(np.max(np.abs(X[:, 13:17])))
+    return out
+
+
+def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = None,
+             lam_f=TARGET_LAM, w_f=TARGET_W, params: TelescopeParams = TelescopeParams(),
+             panels: PanelParams = PanelParams(), max_iter: int = 20,
+             grid_step: float = GRID_STEP) -> Reorientation:
+    """Solve the S4 reorientation (seed 003, Examples 1-2) by the direct method.
+
+    Parameters
+    ----------
+    flexible : bool
+        Flexible telescope with the reduced algorithm (default tolerance 1e-8) instead of the
+        rigid one (default 1e-7).
+    T : float
+        Reorientation time [s].
+    tol : float, optional
+        Tolerance on every component of lam [1] and w [rad/s].
+    lam_f, w_f : sequence
+        Target quaternion and body rate [rad/s].
+
+    Raises
+    ------
+    UnreachableTargetError
+        The end state is outside the CMG momentum envelope (checked before iterating).
+    synthesis.methods.direct_method.ConvergenceError
+        The iterations failed (the message says why).
+    """
+    if not (math.isfinite(T) and T > 0):
+        raise ValueError(f"T must be > 0 [s], got {T}")
+    tol = (1e-8 if flexible else 1e-7) if tol is None else float(tol)
+    if not tol > 0:
+        raise ValueError(f"tol must be > 0, got {tol}")
+    lam_f = tuple(float(v) for v in lam_f)
+    w_f = tuple(float(v) for v in w_f)
+    reach = check_reachable(INITIAL_STATE, lam_f, w_f, params)
+    if not flexible:
+        pb = rigid_problem(params, T, lam_f, w_f, grid_step=grid_step)
+        res = solve(pb, tol=tol, max_iter=max_iter)
+        return Reorientation(False, T, tol, res, path_metrics(res, params), reach, params)
+    pbf = flexible_problem(params, panels, T, lam_f, w_f, grid_step=grid_step)
+    reduced = LinearModel(rigid_jacobian(params), project=lambda X: X[:, :13])
+    res = solve(pbf, tol=tol, max_iter=max_iter, linear=reduced)
+    # the rigid solution flown on the flexible model, and the reduced algorithm started from it
+    t0 = time.perf_counter()
+    rig = solve(rigid_problem(params, T, lam_f, w_f, grid_step=grid_step), tol=min(tol, 1e-9),
+                max_iter=max_iter)
+    _, Xf, _ = simulate(pbf.rhs, pbf.x0, rig.t_nodes, rig.controls, pbf.substeps)
+    rof = float(np.max(np.abs(Xf[-1, :7] - np.array(pbf.target_value))))
+    warm = solve(pbf, controls=rig.controls, tol=tol, max_iter=max_iter, linear=reduced)
+    extra = dict(rigid_then_reduced_seconds=time.perf_counter() - t0)
+    return Reorientation(True, T, tol, res, path_metrics(res, params, panels), reach, params,
+                         panels, rigid_on_flexible_miss=rof, warm_iterations=warm.iterations,
+                         extra=extra)
+
+
+def replay(ro: Reorientation, fmu_dir, step: float | None = None) -> dict:
+    """Fly ``ro``'s program through the FMUs with fmpy; end errors vs the target and the solver.
+
+    Uses ``ProgramController.fmu`` with the program as start values and ``Telescope.fmu`` or
+    ``FlexibleTelescope.fmu`` (first-order hold through the ``du`` inputs).
+    """
+    from descent_fmus.models.controllers.program_table import program_values
+    from descent_fmus.synthesis.cosim import ClosedLoop
+    from descent_fmus.synthesis.systems.telescope.wiring import wiring
+
+    fmu_dir = Path(fmu_dir)
+    plant = "FlexibleTelescope" if ro.flexible else "Telescope"
+    w = wiring(plant)
+    r = ro.result
+    names = ["lam0", "lam1", "lam2", "lam3", "w1", "w2", "w3"]
+    h = float(r.t_nodes[1] - r.t_nodes[0])
+    step = step or h / 2.0
+    with ClosedLoop(w, fmu_dir / f"{plant}.fmu", fmu_dir / "ProgramController.fmu",
+                    record=names + ["sing"]) as cl:
+        t0 = time.perf_counter()
+        out = cl.run(plant_values={"dt": float(r.t[1] - r.t[0])},
+                     controller_values=program_values(ro.T, r.controls), stop_time=ro.T,
+                     step=step, record=True)
+        secs = time.perf_counter() - t0
+    final = np.array([out.final[n] for n in names])
+    target = np.array(r.states[-1, :7]) - np.array(r.miss)
+    return dict(replay_error_vs_target=float(np.max(np.abs(final - target))),
+                replay_error_vs_solver=float(np.max(np.abs(final - r.states[-1, :7]))),
+                replay_sing_min=float(np.min(out["sing"])), replay_seconds=secs,
+                replay_step=step, final={n: float(v) for n, v in zip(names, final)})
+
+
+def plot_reorientation(ro: Reorientation, out_dir) -> list:
+    """Write PNGs (matplotlib Agg) of the controls, rates, quaternion, gimbal angles, singularity
+    measure (and modal coordinates) and the miss per iteration; returns the paths."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    r, p = ro.result, ro.params
+    tag = "flexible" if ro.flexible else "rigid"
+    X, t = r.states, r.t
+    sing = [singularity_measure(x[7:13], p) for x in X]
+    rows = 6 if ro.flexible else 5
+    fig, ax = plt.subplots(rows, 1, figsize=(8, 2.2 * rows), sharex=True)
+    for j in range(6):
+        ax[0].plot(r.t_nodes, np.degrees(r.controls[:, j]), label=f"u{j + 1}")
+    ax[0].set_ylabel("gimbal rate u [deg/s]")
+    for j in range(3):
+        ax[1].plot(t, np.degrees(X[:, 4 + j]), label=f"w{j + 1}")
+    ax[1].set_ylabel("body rate [deg/s]")
+    for j in range(4):
+        ax[2].plot(t, X[:, j], label=f"lam{j}")
+    ax[2].set_ylabel("quaternion [1]")
+    for j in range(6):
+        ax[3].plot(t, np.degrees(X[:, 7 + j]), label=f"beta{j + 1}")
+    ax[3].set_ylabel("gimbal angle [deg]")
+    ax[4].plot(t, sing, "k")
+    ax[4].set_ylabel("det(CC^T)/h^6 [1]")
+    if ro.flexible:
+        for j in range(4):
+            ax[5].plot(t, X[:, 13 + j], label=f"eta{j + 1}")
+        ax[5].set_ylabel("modal coord. [sqrt(kg) m]")
+    for a in ax:
+        a.grid(alpha=0.3)
+        if a.get_legend_handles_labels()[0]:
+            a.legend(fontsize=7, ncol=6, loc="best")
+    ax[-1].set_xlabel("t [s]")
+    fig.suptitle(f"S4 reorientation ({tag}), direct method: {r.iterations} iterations, "
+                 f"miss {r.max_miss:.1e}")
+    fig.tight_layout()
+    p1 = out_dir / f"reorient_{tag}.png"
+    fig.savefig(p1, dpi=90)
+    plt.close(fig)
+    fig, a = plt.subplots(figsize=(5, 3.5))
+    a.semilogy([h["iteration"] for h in r.history], [max(h["max_miss"], 1e-17)
+                                                      for h in r.history], "o-")
+    a.axhline(ro.tol, color="r", ls="--", label=f"tol {ro.tol:g}")
+    a.set_xlabel("iteration")
+    a.set_ylabel("max |x_i(T) - x_i,f|")
+    a.legend()
+    a.grid(alpha=0.3)
+    fig.tight_layout()
+    p2 = out_dir / f"reorient_{tag}_miss.png"
+    fig.savefig(p2, dpi=90)
+    plt.close(fig)
+    return [p1, p2]
+
+
+def _write_programs():
+    import json
+    from descent_fmus.models.controllers.program_table import program_values
+    from descent_fmus.synthesis.systems.telescope.wiring import PROGRAMS_FILE
+    progs = {}
+    for flex in (False, True):
+        ro = reorient(flexible=flex)
+        progs["flexible" if flex else "rigid"] = program_values(ro.T, ro.result.controls)
+    with open(PROGRAMS_FILE, "w", encoding="utf-8") as fh:
+        json.dump(progs, fh, indent=0)
+    print(f"wrote {PROGRAMS_FILE}")
+
+
+if __name__ == "__main__":
+    import sys
+    if "--write-programs" in sys.argv:
+        _write_programs()
