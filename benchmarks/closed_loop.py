@@ -2,7 +2,7 @@
 
 Prints the median wall time of a flight (FMU instances reused: reset + new start values per run)
 and the ratio to the in-process run of the same functions (models.reentry.FlightIntegrator and
-the network-operator evaluation, no FMI).  Goal (issue 2): <= 20 ms per flight, ratio <= 2.
+the network-operator evaluation, no FMI).  Goal: <= 20 ms per flight, ratio <= 2.
 
     python benchmarks/closed_loop.py [--repeat N] [--fmus DIR]
 """
@@ -11,17 +11,16 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
-import sys
 import timeit
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from descent_fmus.models.reentry import ReentryParams, deviations, simulate  # noqa: E402
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator  # noqa: E402
-from descent_fmus.synthesis.systems.reentry.flight import fly, open_loop  # noqa: E402
-from descent_fmus.synthesis.scenarios import reentry as spec  # noqa: E402
+from descent_fmus.models.reentry import ReentryParams, deviations, simulate
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
 
 
 def timed(fn, repeat):
@@ -31,12 +30,12 @@ def timed(fn, repeat):
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=30)
-    ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     p = ReentryParams()
     rows = {}
-    with open_loop(args.fmus, record=()) as loop:
+    with load_loop(args.fmus, record=()) as loop:
         for name, law in (("basic law", NetworkOperator.basic_law()),
                           ("paper 16-node law", NetworkOperator.paper_law())):
             fly(law, loop=loop)  # warm-up

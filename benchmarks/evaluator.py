@@ -1,4 +1,4 @@
-"""Benchmark: closed-loop evaluations per second through the FMUs (issue 3).
+"""Benchmark: closed-loop evaluations per second through the FMUs.
 
 Evaluates the same batch of distinct laws (random parameters of the basic law and random
 variations of it, as the GA produces them) with 1 and 2 local workers and on a Dask
@@ -11,26 +11,26 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 import time
 from pathlib import Path
 
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.synthesize import make_ga
 
-from descent_fmus.synthesis.evaluator import Evaluator, get_problem  # noqa: E402
-from descent_fmus.synthesis.methods.ga import GAConfig  # noqa: E402
-from descent_fmus.synthesis.synthesize import make_ga  # noqa: E402
+PROBLEM = get_problem("reentry")
 
 
 def laws(n: int, seed: int = 0):
-    ga = make_ga(get_problem("reentry"), GAConfig(population=n), seed)
+    ga = make_ga(PROBLEM, Budget(population=n, seed=seed))
     return ga.ask()          # the GA's initial population: basis + random variations and q
 
 
-def rate(batch, fmu_dir, **kw) -> float:
-    with Evaluator("reentry", fmu_dir, **kw) as ev:
+def rate(batch, fmus, **kw) -> float:
+    with Evaluator(PROBLEM, fmus, **kw) as ev:
         ev.evaluate(batch[:8])                      # start-up (imports, FMU loading)
         ev.cache.clear()
         n0, t0 = ev.simulated, time.perf_counter()
@@ -41,7 +41,7 @@ def rate(batch, fmu_dir, **kw) -> float:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=600)
-    ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     batch = laws(args.n)

@@ -13,21 +13,22 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from descent_fmus.synthesis.evaluator import Evaluator, get_problem  # noqa: E402
-from descent_fmus.synthesis.systems.lunar_descent.problems import INITIAL_SET, fly_in_process  # noqa: E402
+from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.systems.lunar_descent.problems import INITIAL_SET
+from descent_fmus.synthesis.systems.lunar_descent.study import fly_in_process
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=40, help="distinct laws to evaluate")
-    ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
+    ap.add_argument("--fmus", type=Path, default=None,
+                    help="folder of the built FMUs (default: fmus/ or $DESCENT_FMUS_DIR)")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     prob = get_problem("lunar-descent")
-    basic = prob.basic_law()
+    basic = prob.basic_law
     t0 = time.perf_counter()
     for th, h0 in INITIAL_SET:
         fly_in_process(basic, th, h0)
@@ -35,7 +36,7 @@ def main(argv=None) -> int:
     rng = np.random.default_rng(0)
     laws = [basic.with_q(np.array(basic.q) * (1 + 0.05 * rng.standard_normal(len(basic.q))))
             for _ in range(args.n)]
-    with Evaluator(prob, args.fmus) as ev:
+    with Evaluator(prob, args.fmus or fmu_dir()) as ev:
         ev.evaluate([basic])                       # load and warm up
         t0 = time.perf_counter()
         ev.evaluate(laws)

@@ -6,26 +6,23 @@ median time of one closed-loop landing through the FMUs (program, feedback) with
 communication steps per second, the in-process rate of the same code for comparison, and the
 wall time of a dispersion study.
 
-    python benchmarks/lunar_landing.py [--repeat N] [--fmus DIR] [--json]
+    python benchmarks/lunar_landing.py [--repeat N] [--fmus DIR] [--dispersion N] [--json]
 
-References: seed 002 (Mozzhorina 2017), Table 1 guesses.
+References: Mozzhorina (2017), Table 1 guesses.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import statistics
-import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from descent_fmus.models.lunar_landing import optimal_landing  # noqa: E402
-from descent_fmus.synthesis.systems.lunar_landing.study import LandingLoops, dispersion, fly_feedback_in_process  # noqa: E402
-from descent_fmus.synthesis.systems.lunar_landing.problems import PAPER_GUESSES, landing_problem  # noqa: E402
-from descent_fmus.synthesis.methods.shooting import solve  # noqa: E402
+from descent_fmus.models.lunar_landing import optimal_landing
+from descent_fmus.synthesis.methods.shooting import solve
+from descent_fmus.synthesis.systems.lunar_landing.problems import PAPER_GUESSES, landing_problem
+from descent_fmus.synthesis.systems.lunar_landing.study import (LandingLoops, dispersion,
+                                                                fly_feedback_in_process)
 
 
 def timed(fn, repeat):
@@ -44,7 +41,9 @@ def in_process_feedback():
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
+    ap.add_argument("--fmus", type=Path, default=None,
+                    help="folder of the built FMUs (default: fmus/ of the checkout, or "
+                         "$DESCENT_FMUS_DIR)")
     ap.add_argument("--dispersion", type=int, default=40)
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)

@@ -2,33 +2,35 @@
 """S4 benchmark: run time of the direct method (rigid and flexible) beside the thesis' 1.7 s.
 
 Prints the median wall time of several solves, the iterations and the ratio to the paper's
-figure (seed 003, Example 1: 5 iterations, 1.7 s on an Athlon 64 3000+, 1 core, 1.8 GHz), and
-the FMU replay time if the FMUs are built ($DESCENT_FMUS_DIR or fmus/).  No assertions.
+figure (Voronov 2009, Example 1: 5 iterations, 1.7 s on an Athlon 64 3000+, 1 core, 1.8 GHz),
+and the FMU replay time if the FMUs are built ($DESCENT_FMUS_DIR or fmus/).  No assertions.
 
-Usage: ``python benchmarks/telescope.py [--repeat N]``.
+Usage: ``python benchmarks/telescope.py [--repeat N] [--fmus DIR]``.
 """
 from __future__ import annotations
 
 import argparse
-import os
 import statistics
 import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
-
-from descent_fmus.synthesis.systems.telescope.reorientation import (PAPER_ITERATIONS, PAPER_SECONDS, replay,  # noqa: E402
-                                     reorient)
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.systems.telescope.reorientation import (PAPER_ITERATIONS,
+                                                                    PAPER_SECONDS, replay,
+                                                                    reorient)
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--fmus", type=Path, default=None,
+                    help="folder of the built FMUs (default: fmus/ or $DESCENT_FMUS_DIR)")
     args = ap.parse_args(argv)
+    fmus = args.fmus or fmu_dir()
     reorient()  # warm-up (imports, caches)
-    print(f"paper (seed 003, rigid): {PAPER_ITERATIONS} iterations to 1e-7, {PAPER_SECONDS} s")
+    print(f"paper (Voronov 2009, rigid): {PAPER_ITERATIONS} iterations to 1e-7, "
+          f"{PAPER_SECONDS} s")
     for flex in (False, True):
         times, ro = [], None
         for _ in range(args.repeat):
@@ -51,7 +53,6 @@ def main(argv=None) -> int:
             print(f"{'':24s}  rigid solution on the flexible model misses by "
                   f"{ro.rigid_on_flexible_miss:.1e}; reduced algorithm from it: "
                   f"{ro.warm_iterations} iterations")
-        fmus = Path(os.environ.get("DESCENT_FMUS_DIR", ROOT / "fmus"))
         if (fmus / "ProgramController.fmu").is_file():
             rep = replay(ro, fmus)
             print(f"{'':24s}  FMU replay (fmpy, step 0.5 s): {rep['replay_seconds']:.3f} s, "

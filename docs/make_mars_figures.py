@@ -7,58 +7,51 @@
   (b) the law fed the omega_1-mode amplitude/phase and fed the instantaneous angles,
   (c) the end-of-descent error of the averaged model against alpha0.
 
-    python docs/make_mars_figures.py [--fmus DIR]
+    python docs/make_mars_figures.py [--fmus DIR] [--out DIR]
 """
 from __future__ import annotations
 
 import argparse
 import os
-import sys
 from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+from descent_fmus.synthesis.plotting import save_figure
+from descent_fmus.synthesis.systems.mars.flight import (ALPHA_TARGET, RECORD_6DOF, fly_set,
+                                                        load_loop, plot_alpha)
+from descent_fmus.synthesis.systems.mars.wiring import WIRING_6DOF, WIRING_6DOF_INSTANT
 
-from descent_fmus.synthesis.cosim import ClosedLoop  # noqa: E402
-from descent_fmus.synthesis.systems.mars.flight import fly_set, plot_alpha  # noqa: E402
-from descent_fmus.synthesis.scenarios import mars as spec  # noqa: E402
-
-DOCS = ROOT / "docs"
+DOCS = Path(__file__).resolve().parent
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--fmus", type=Path,
-                    default=Path(os.environ.get("DESCENT_FMUS_DIR", ROOT / "fmus")))
+    ap.add_argument("--fmus", type=Path, default=None,
+                    help="folder of the built FMUs (default: fmus/ or $DESCENT_FMUS_DIR)")
+    ap.add_argument("--out", type=Path, default=DOCS, help="folder of the figures (docs/)")
     args = ap.parse_args(argv)
+    os.environ.setdefault("MPLBACKEND", "Agg")
+    import matplotlib.pyplot as plt
 
     runs = fly_set(args.fmus, formulas=("consistent", "paper"))
-    plot_alpha(runs, DOCS / "mars_alpha.png")
+    plot_alpha(runs, args.out / "mars_alpha.png")
     for r in runs:
         print(f"{r.label:22s} alpha_end = {r.alpha_end:.3e} rad")
     print(f"ratio no control / law = {runs[0].alpha_end / runs[1].alpha_end:.3g}")
 
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     ctrl, none, paper = runs[1].result, runs[0].result, runs[2].result
-    rec = ("alpha", "alpha_m1", "alpha_m2")
-    fmu6 = args.fmus / "MarsCapsule6DOF.fmu"
-    fmuc = args.fmus / "MarsBellmanController.fmu"
-    with ClosedLoop(spec.WIRING_6DOF, fmu6, fmuc, record=rec) as loop:
+    with load_loop(args.fmus, WIRING_6DOF, RECORD_6DOF) as loop:
         r6_none = loop.run(controller_values={"u_max": 0.0}, record=True)
         r6_m1 = loop.run(record=True)
         sweep = []
         for a0 in (0.05, 0.1, 0.2, 0.35, 0.5, 0.8, 1.2):
             end6 = loop.run({"alpha0": a0}, {"u_max": 0.0}).final["alpha"]
             sweep.append((a0, end6))
-    with ClosedLoop(spec.WIRING, args.fmus / "MarsCapsule.fmu", fmuc) as loop:
+    with load_loop(args.fmus) as loop:
         sweep = [(a0, e6, loop.run({"alpha0": a0}, {"u_max": 0.0}).final["alpha"])
                  for a0, e6 in sweep]
-    with ClosedLoop(spec.WIRING_6DOF_INSTANT, fmu6, fmuc, record=rec) as loop:
+    with load_loop(args.fmus, WIRING_6DOF_INSTANT, RECORD_6DOF) as loop:
         r6_inst = loop.run(record=True)
 
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
@@ -70,7 +63,7 @@ def main(argv=None):
     ax[1].semilogy(r6_m1.time, r6_m1["alpha_m1"], ":", label="  ... its omega_1 mode")
     ax[1].semilogy(r6_m1.time, r6_m1["alpha_m2"], ":", label="  ... its omega_2 mode")
     ax[1].semilogy(r6_inst.time, r6_inst["alpha"], label="rigid body, law fed alpha, theta")
-    ax[1].axhline(0.01, color="grey", ls=":", lw=0.8)
+    ax[1].axhline(ALPHA_TARGET, color="grey", ls=":", lw=0.8)
     ax[1].set(title="(b) with the law", xlabel="t [s]", ylabel="alpha [rad]", ylim=(1e-8, 2))
     a0s = np.array([s[0] for s in sweep])
     err = np.array([s[1] / s[2] - 1.0 for s in sweep])
@@ -79,11 +72,7 @@ def main(argv=None):
               xlabel="alpha0 [rad]", ylabel="relative difference")
     for a in ax[:2]:
         a.legend(fontsize=7)
-    for a in ax:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(DOCS / "mars_6dof.png", dpi=80)
-    plt.close(fig)
+    save_figure(fig, args.out / "mars_6dof.png", ax, dpi=80)
 
     a_avg = np.interp(r6_none.time, none.time, none["alpha"])
     print(f"no control: max |alpha_m1(rigid)/alpha(avg) - 1| = "

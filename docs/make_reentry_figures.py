@@ -12,21 +12,21 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
 
-from descent_fmus.models.reentry import ReentryParams  # noqa: E402
-from descent_fmus.synthesis.cosim import ClosedLoop  # noqa: E402
-from descent_fmus.synthesis.evaluator import get_problem  # noqa: E402
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator  # noqa: E402
-from descent_fmus.synthesis.methods.open_loop import Program  # noqa: E402
-from descent_fmus.synthesis.systems.reentry.flight import fly, open_loop  # noqa: E402
-from descent_fmus.synthesis.systems.reentry.robustness import program_start_values, program_wiring  # noqa: E402
-from descent_fmus.synthesis.scenarios import reentry as spec  # noqa: E402
-from descent_fmus.synthesis.synthesize import plot_front  # noqa: E402
+from descent_fmus.models.reentry import ReentryParams
+from descent_fmus.synthesis.cosim import ClosedLoop
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.synthesize import plot_front
+from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry.bound import Program
+from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
+from descent_fmus.synthesis.systems.reentry.robustness import (
+    program_start_values, program_wiring)
 
 DOCS = ROOT / "docs"
 
@@ -34,7 +34,7 @@ DOCS = ROOT / "docs"
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("run", type=Path)
-    ap.add_argument("--fmus", type=Path, default=ROOT / "fmus")
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
     args = ap.parse_args(argv)
     import matplotlib
     matplotlib.use("Agg")
@@ -43,15 +43,16 @@ def main(argv=None):
     summary = json.loads((args.run / "summary.json").read_text())
     best = summary["best_miss_below_1km"]
     rows = json.loads((args.run / "pareto.json").read_text())
-    plot_front(get_problem("reentry"), rows, summary, DOCS / "reentry_pareto.png",
-               summary.get("open_loop_J1"))
+    if "reference" not in summary and summary.get("open_loop_J1"):
+        summary["reference"] = {"value": summary["open_loop_J1"], "label": "open-loop optimum"}
+    plot_front(get_problem("reentry"), rows, summary, DOCS / "reentry_pareto.png")
     law = NetworkOperator.from_dict(next(r for r in rows if r["k"] == best["k"])["law"])
     ref = ROOT / "tests" / "reference" / "reentry_best_law.json"
     ref.parent.mkdir(exist_ok=True)
     law.save(ref)
     prog = Program.load(args.run / "open_loop.json")
     flights = {}
-    with open_loop(args.fmus, record=("h", "L", "load")) as loop:
+    with load_loop(args.fmus, record=("h", "L", "load")) as loop:
         for name, lw in (("synthesised law", law), ("basic law (paper q)",
                                                      NetworkOperator.basic_law())):
             f = fly(lw, loop=loop, record=True)

@@ -144,14 +144,19 @@ class SlaveBase(Fmi2Slave):
                   variability=Fmi2Variability.fixed, description=description)
 
     def parameters(self, names=None) -> None:
-        """Real parameters from the fields of :attr:`params_class` (all, or ``names``).
+        """Parameters from the fields of :attr:`params_class` (all, or ``names``): Integer for
+        int fields, Real otherwise.
 
         Default, unit and description come from the dataclass (:func:`models.params.param`).
         """
         cls = self.params_class
         defaults = cls()
         for name in names or [f.name for f in fields(cls)]:
-            self.parameter(name, getattr(defaults, name), description_of(cls, name))
+            value = getattr(defaults, name)
+            if isinstance(value, int) and not isinstance(value, bool):
+                self.int_parameter(name, value, description_of(cls, name))
+            else:
+                self.parameter(name, value, description_of(cls, name))
 
     def status_outputs(self, status, t_end) -> None:
         """The plant status convention: Integer ``status`` and Real ``t_end`` (getters)."""

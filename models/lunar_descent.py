@@ -17,67 +17,72 @@ changes the mass flow by the same factor).
 
 The flight ends at the first time V is in [Vf-, Vf+] and h in [hf-, hf+] (the terminal box),
 at a crash (h = 0), when the model leaves its domain (V < V_STALL, where theta is undefined, or
-m <= 0), or at t+.  Every end is located inside the RK4 sub-step.
+m <= 0), or at t+.  Every end is located inside the RK4 sub-step.  The FMU publishes the end with
+the plant status convention (:mod:`models.integrators`): ``status`` = REACHED in the box, CRASHED
+at h = 0, LEFT_DOMAIN outside the model's domain, and ``t_end``.
 
 This module holds the only definition of these equations: the :class:`LunarDescent` FMU and
-the in-process code (tests, the feasibility scan) use the same functions.
+the in-process code (tests, quick scans, the benchmark) use the same functions.
 
 References
 ----------
-Seed 004: A.I. Diveev et al., "Синтез управления спуском космического аппарата на
-поверхность Луны методом сетевого оператора", Vestnik MGTU im. Baumana, ser.
-Priborostroenie, 2013, no. 4,
-eqs. (1)-(6); scenario numbers: SPEC S5 [choice].
+A.I. Diveev et al., "Синтез управления спуском космического аппарата на поверхность Луны
+методом сетевого оператора", Vestnik MGTU im. Baumana, ser. Priborostroenie, 2013, no. 4,
+eqs. (1)-(6); the scenario numbers are our [choice] (models/README.md).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 
-from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from descent_fmus.models.integrators import DIVERGED, EVENT, advance_to
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.integrators import (CRASHED, DIVERGED, EVENT, LEFT_DOMAIN, REACHED,
+                                             Integrator, advance_to)
+from descent_fmus.models.params import ParameterError, Params, param
 
 __all__ = ["DescentParams", "rhs", "box_distance", "controller_inputs", "DescentIntegrator",
            "simulate", "LunarDescent", "U1_BOUNDS", "U2_BOUNDS", "T_PLUS", "G_TILDE",
-           "V_STALL", "FLYING", "IN_BOX", "CRASHED", "OUT_OF_DOMAIN"]
+           "V_STALL", "DT_INTEGRATION"]
 
-#: Thrust-direction bounds [rad] (SPEC S5: from straight down to straight up).
+#: Thrust-direction bounds [rad] ([choice]: from straight down to straight up).
 U1_BOUNDS = (math.pi, 2.0 * math.pi)
-#: Thrust-change bounds [kgf] (SPEC S5).
+#: Thrust-change bounds [kgf] ([choice], models/README.md).
 U2_BOUNDS = (-40.0, 40.0)
-#: Final time t+ [s] (SPEC S5).
+#: Final time t+ [s] ([choice], models/README.md).
 T_PLUS = 600.0
-#: Standard gravity g~ converting kgf to N [m/s^2] (seed 004, eq. 6).
+#: Standard gravity g~ converting kgf to N [m/s^2] (Diveev et al. 2013, eq. 6).
 G_TILDE = 9.80665
 #: Speed below which the flight leaves the model's domain [m/s]: dtheta/dt has V in the
 #: denominator, so the angle is undefined at V = 0 ([choice], models/README.md).
 V_STALL = 1.0
-#: Default RK4 sub-step [s] (accuracy: models/README.md, tests/test_lunar_descent.py).
+#: Default RK4 sub-step [s] (accuracy: models/README.md, tests/test_lunar_descent_model.py).
 DT_INTEGRATION = 1.0
-
-#: Values of the Integer output ``stop``.
-FLYING, IN_BOX, CRASHED, OUT_OF_DOMAIN = 0, 1, 2, 3
 
 
 @dataclass(frozen=True)
-class DescentParams:
-    """Parameters of the S5 plant (SI units; thrust in kgf as in the seed), defaults = the
-    default scenario of SPEC S5 with theta0 = 90 deg and h0 = 18 km (the centre of the set)."""
+class DescentParams(Params):
+    """Parameters of the S5 plant (SI units; thrust in kgf as in the paper); defaults = the
+    default scenario with theta0 = 90 deg and h0 = 18 km (the centre of the initial set).
 
-    P0: float = 440.0                #: nominal thrust [kgf]
-    P_ud: float = 319.0              #: specific impulse [s]
-    k_P: float = 1.0                 #: thrust factor (dispersion study) [-]
-    g0: float = 1.623                #: lunar surface gravity [m/s^2]
-    R0: float = 1_738_400.0          #: mean lunar radius [m]
-    m0: float = 1400.0               #: initial mass [kg]                 ([choice], SPEC S5)
-    V0: float = 1690.0               #: initial speed [m/s]               ([choice], SPEC S5)
-    theta0: float = math.pi / 2      #: initial angle from the vertical [rad]
-    h0: float = 18_000.0             #: initial altitude [m]
-    phi0: float = 0.0                #: initial range angle [rad]
-    V_lo: float = 40.0               #: terminal box, lower speed Vf- [m/s]
-    V_hi: float = 60.0               #: terminal box, upper speed Vf+ [m/s]
-    h_lo: float = 1500.0             #: terminal box, lower altitude hf- [m]
-    h_hi: float = 2500.0             #: terminal box, upper altitude hf+ [m]
+    m0, V0 and the terminal box are our [choice] (models/README.md, S5 scenario).
+    """
+
+    P0: float = param(440.0, "kgf", "nominal thrust", positive=True)
+    P_ud: float = param(319.0, "s", "specific impulse", positive=True)
+    k_P: float = param(1.0, "1", "thrust factor (dispersion; scales thrust and mass flow)",
+                       positive=True)
+    g0: float = param(1.623, "m/s2", "lunar surface gravity", positive=True)
+    R0: float = param(1_738_400.0, "m", "mean lunar radius", positive=True)
+    m0: float = param(1400.0, "kg", "initial mass", positive=True)
+    V0: float = param(1690.0, "m/s", "initial speed", positive=True)
+    theta0: float = param(math.pi / 2, "rad", "initial angle of the velocity from the upward "
+                          "vertical")
+    h0: float = param(18_000.0, "m", "initial altitude", positive=True)
+    phi0: float = param(0.0, "rad", "initial range angle")
+    V_lo: float = param(40.0, "m/s", "terminal box: lower speed Vf-")
+    V_hi: float = param(60.0, "m/s", "terminal box: upper speed Vf+")
+    h_lo: float = param(1500.0, "m", "terminal box: lower altitude hf-")
+    h_hi: float = param(2500.0, "m", "terminal box: upper altitude hf+")
 
     @property
     def Vf(self) -> float:
@@ -89,12 +94,7 @@ class DescentParams:
         """Target altitude of J1: the centre of the box [m]."""
         return 0.5 * (self.h_lo + self.h_hi)
 
-    def validate(self) -> "DescentParams":
-        """Raise :class:`ParameterError` naming the first invalid parameter."""
-        for f in fields(self):
-            require_finite(f.name, getattr(self, f.name))
-        for name in ("P0", "P_ud", "k_P", "g0", "R0", "m0", "V0", "h0"):
-            require_positive(name, getattr(self, name))
+    def check(self) -> None:
         if self.P0 + U2_BOUNDS[0] <= 0.0:
             raise ParameterError(f"parameter P0 must exceed {-U2_BOUNDS[0]} kgf (the thrust "
                                  f"change reaches {U2_BOUNDS[0]} kgf), got {self.P0}")
@@ -109,7 +109,6 @@ class DescentParams:
         if self.V_lo <= self.V0 <= self.V_hi and self.h_lo <= self.h0 <= self.h_hi:
             raise ParameterError("the initial state (V0, h0) lies inside the terminal box; "
                                  "there is nothing to fly")
-        return self
 
     def constants(self) -> tuple:
         """The argument tuple of :func:`rhs` after the controls: (g~ k_P, k_P / P_ud, P0, g0,
@@ -117,14 +116,12 @@ class DescentParams:
         return (G_TILDE * self.k_P, self.k_P / self.P_ud, self.P0, self.g0, self.R0)
 
     def initial_state(self) -> tuple:
+        """(V0 [m/s], theta0 [rad], h0 [m], phi0 [rad], m0 [kg])."""
         return (self.V0, self.theta0, self.h0, self.phi0, self.m0)
-
-    def with_(self, **changes) -> "DescentParams":
-        return replace(self, **changes)
 
 
 def rhs(x, u1, u2, gk, fk, P0, g0, R0):
-    """Right-hand side of seed 004 eqs. (1)-(6).
+    """Right-hand side of Diveev et al. (2013), eqs. (1)-(6).
 
     Parameters
     ----------
@@ -173,34 +170,40 @@ def controller_inputs(x, p: DescentParams) -> tuple:
     return (th, (h - p.hf) / H_SCALE, (V - p.Vf) / V_SCALE, V * math.cos(th) / 100.0)
 
 
-class DescentIntegrator:
+class DescentIntegrator(Integrator):
     """Advance the S5 plant with RK4 sub-steps; locate the box entry, a crash or a stall.
 
     The one integrator of the plant (on the project's one stepping loop,
     :func:`models.integrators.advance_to`, with the earliest of the three events as its event
     function): the :class:`LunarDescent` FMU owns one, and in-process code
-    (:func:`simulate`) uses the same class.  After the flight ends the state is frozen.
+    (:func:`simulate`) uses the same class.  ``status`` becomes ``REACHED`` in the terminal box,
+    ``CRASHED`` at h = 0 and ``LEFT_DOMAIN`` at V = V_STALL, m = 0 or a non-finite state; after
+    that the state is frozen.  ``h_min`` is the minimum altitude so far [m].
+
+    Parameters
+    ----------
+    p : DescentParams
+        Plant parameters (validated here).
+    dt : float
+        RK4 sub-step [s].
     """
 
     def __init__(self, p: DescentParams, dt: float = DT_INTEGRATION):
         self.p = p.validate()
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ParameterError(f"integration step dt must be > 0, got {dt!r}")
-        self.dt = dt
         self.args = p.constants()
-        self.reset()
+        super().__init__(dt)
+
+    def initial_state(self) -> tuple:
+        return self.p.initial_state()
 
     def reset(self):
-        self.t = 0.0
-        self.x = self.p.initial_state()
-        self.stop = FLYING
-        self.t_end = math.nan
+        super().reset()
         self.h_min = self.x[2]
 
     def _events(self, x):
-        """(event code, value) pairs; an event happens where its value becomes <= 0."""
-        return ((CRASHED, x[2]), (OUT_OF_DOMAIN, min(x[0] - V_STALL, x[4])),
-                (IN_BOX, box_distance(x, self.p)))
+        """(status, value) pairs; the flight ends with that status where the value reaches 0."""
+        return ((CRASHED, x[2]), (LEFT_DOMAIN, min(x[0] - V_STALL, x[4])),
+                (REACHED, box_distance(x, self.p)))
 
     def _event(self, x) -> float:
         # the earliest of the three events: min of continuous functions, zero where one is
@@ -211,8 +214,9 @@ class DescentIntegrator:
             self.h_min = x[2]
 
     def advance(self, t_end: float, u1: float, u2: float) -> None:
-        """Integrate from ``self.t`` to ``t_end`` with the controls held at (u1, u2)."""
-        if self.stop:
+        """Integrate from ``self.t`` to ``t_end`` [s] with the controls held at (u1 [rad],
+        u2 [kgf])."""
+        if self.status:
             return
         x, t, outcome = advance_to(rhs, self.x, self.t, t_end, self.dt, (u1, u2) + self.args,
                                    self._event, self._sample)
@@ -220,25 +224,24 @@ class DescentIntegrator:
         self._sample(x, None)
         if outcome == EVENT:
             # which event: the one whose function is (to the location tolerance) zero
-            self.stop = min(self._events(x), key=lambda e: e[1])[0]
+            self.end(min(self._events(x), key=lambda e: e[1])[0], t)
         elif outcome == DIVERGED:
-            self.stop = OUT_OF_DOMAIN
-        if self.stop:
-            self.t_end = t
+            self.end(LEFT_DOMAIN, t)
 
 
 def simulate(p: DescentParams = DescentParams(), control=lambda t, x: (1.5 * math.pi, 0.0),
              step: float = 1.0, t_plus: float = T_PLUS, dt: float = DT_INTEGRATION,
              trace: list | None = None) -> DescentIntegrator:
-    """Fly S5 in-process with ``(u1, u2) = control(t, x)`` held over communication steps.
+    """Fly S5 in-process with ``(u1, u2) = control(t, x)`` held over communication steps
+    ``step`` [s].
 
     Controls are clipped to :data:`U1_BOUNDS` and :data:`U2_BOUNDS` as in the FMU.  If
     ``trace`` is a list, ``(t, V, theta, h, phi, m, u1, u2)`` is appended at every step.
-    Returns the finished :class:`DescentIntegrator` (``stop``, ``t_end``, ``x``, ``h_min``).
+    Returns the finished :class:`DescentIntegrator` (``status``, ``t_end``, ``x``, ``h_min``).
     """
     fi = DescentIntegrator(p, dt)
     k = 0
-    while not fi.stop and fi.t < t_plus - 1e-9:
+    while fi.running and fi.t < t_plus - 1e-9:
         u1, u2 = control(fi.t, fi.x)
         u1 = min(max(u1, U1_BOUNDS[0]), U1_BOUNDS[1])
         u2 = min(max(u2, U2_BOUNDS[0]), U2_BOUNDS[1])
@@ -253,27 +256,16 @@ def simulate(p: DescentParams = DescentParams(), control=lambda t, x: (1.5 * mat
 
 class LunarDescent(SlaveBase):
     """FMU of the S5 plant: inputs ``u1``, ``u2``; outputs the state, the controller inputs
-    ``y1..y4``, fuel used, minimum altitude and the Integer ``stop`` flag."""
+    ``y1..y4``, fuel used, minimum altitude, ``status`` and ``t_end``."""
 
     params_class = DescentParams
 
     description = ("S5 descent from lunar orbit into a terminal box (V, theta, h, phi, m; thrust "
-                   "direction u1 and thrust change u2); seed 004, Diveev et al. 2013")
+                   "direction u1 and thrust change u2); Diveev et al. 2013")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.parameters([("P0", "nominal thrust [kgf]"), ("P_ud", "specific impulse [s]"),
-                         ("k_P", "thrust factor (dispersion; scales thrust and mass flow) [1]"),
-                         ("g0", "lunar surface gravity [m/s2]"),
-                         ("R0", "mean lunar radius [m]"), ("m0", "initial mass [kg]"),
-                         ("V0", "initial speed [m/s]"),
-                         ("theta0", "initial angle of the velocity from the upward vertical "
-                          "[rad]"),
-                         ("h0", "initial altitude [m]"), ("phi0", "initial range angle [rad]"),
-                         ("V_lo", "terminal box: lower speed [m/s]"),
-                         ("V_hi", "terminal box: upper speed [m/s]"),
-                         ("h_lo", "terminal box: lower altitude [m]"),
-                         ("h_hi", "terminal box: upper altitude [m]")])
+        self.parameters()
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.input("u1", 1.5 * math.pi, "thrust direction from the upward vertical, clipped to "
                    "[pi, 2 pi] [rad]")
@@ -288,11 +280,9 @@ class LunarDescent(SlaveBase):
                            ("y3", "controller input: (V - Vf) / 1000 m/s [1]"),
                            ("y4", "controller input: dh/dt / 100 m/s [1]")]:
             self.output(name, desc)
-        self.output("t_end", "time the flight ended (box, crash, stall), -1 before [s]",
-                    start=-1.0)
-        self.output("end", "the stop flag as a Real (hosts and the evaluator read Reals) [1]")
-        self.int_output("stop", "0 flying, 1 in the terminal box, 2 crashed (h = 0), 3 left "
-                        "the model's domain (V < 1 m/s, m <= 0, non-finite) [1]")
+        # status: 1 in the terminal box, 2 crashed (h = 0), 3 left the model's domain
+        # (V < 1 m/s, m <= 0, non-finite)
+        self.status_outputs(lambda: self._fi.status, lambda: self._fi.t_end_output)
         self.apply_resource_defaults()
         self.prepare()
 
@@ -307,9 +297,6 @@ class LunarDescent(SlaveBase):
         self.fuel = fi.p.m0 - x[4]
         self.h_min = fi.h_min
         self.y1, self.y2, self.y3, self.y4 = controller_inputs(x, fi.p)
-        self.t_end = fi.t_end if fi.stop else -1.0
-        self.stop = fi.stop
-        self.end = float(fi.stop)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         u1, u2 = self.u1, self.u2

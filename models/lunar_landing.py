@@ -15,9 +15,9 @@ time ``s`` with ``a = u / m``
     h(s) = h - [V s + gL s^2 / 2 - beta (s + (1 - a s) ln(1 - a s) / a)]
 
 (``u = 0``: the free-fall parabola).  The fuel-optimal landing is a coast followed by full thrust
-down to ``h = V = 0`` (one switch, SPEC S3), so the *switching curve* ``h_sw(V, m)`` -- the height
-from which full thrust brings the speed to zero exactly at the ground -- is this closed form
-evaluated at the stopping time.  It defines the feedback law of
+down to ``h = V = 0`` (one switch, Mozzhorina 2017), so the *switching curve* ``h_sw(V, m)`` --
+the height from which full thrust brings the speed to zero exactly at the ground -- is this
+closed form evaluated at the stopping time.  It defines the feedback law of
 :mod:`models.controllers.lunar_landing_switch` and, with the coast, the exact optimum
 (:func:`optimal_landing`) that tests use as an oracle for the shooting solver.
 
@@ -26,20 +26,23 @@ controller FMUs and the in-process code (shooting problem, tests) call the same 
 
 References
 ----------
-Seed 002: T.Yu. Mozzhorina, "Numerical solution to problems of optimal control with switching by
-means of the shooting method", Math. Modeling and Computational Methods, 2017, no. 2, eqs. (1)-(7).
+T.Yu. Mozzhorina, "Numerical solution to problems of optimal control with switching by means of
+the shooting method", Math. Modeling and Computational Methods, 2017, no. 2, eqs. (1)-(7).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 
-from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from descent_fmus.models.integrators import EVENT, advance_to
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.integrators import (DIVERGED, EVENT, LEFT_DOMAIN, REACHED, Integrator,
+                                             advance_to)
+from descent_fmus.models.params import ParameterError, Params, param
 
 __all__ = ["LanderParams", "InfeasibleLandingError", "rhs", "constant_flow_state",
            "stopping_time", "switch_height", "optimal_landing", "OptimalLanding",
-           "LanderIntegrator", "LunarLander", "DT_INTEGRATION", "H_CONTACT", "solve_increasing"]
+           "LanderIntegrator", "LunarLander", "DT_INTEGRATION", "H_CONTACT", "M_DRY", "STEP",
+           "solve_increasing"]
 
 #: Default RK4 sub-step inside the FMU [s]: the powered arc is smooth (u constant inside a
 #: communication step), so one RK4 step of 0.01 s has a local error below 1e-12 m.
@@ -48,6 +51,11 @@ DT_INTEGRATION = 0.01
 #: exactly onto h = V = 0 would otherwise hover at h ~ 1e-17 m, chattering, before rounding lets
 #: it touch; 1 micrometre ends that without changing any reported digit.
 H_CONTACT = 1e-6
+#: Default mass below which the plant cuts the engine [kg] (a guard, never reached in a landing).
+M_DRY = 1.0
+#: Communication step of the landing closed loops [s], also the step the controller FMUs assume
+#: before their first ``doStep``.
+STEP = 0.01
 
 
 class InfeasibleLandingError(ParameterError):
@@ -55,29 +63,24 @@ class InfeasibleLandingError(ParameterError):
 
 
 @dataclass(frozen=True)
-class LanderParams:
-    """Parameters of the S3 plant (SI units); defaults = SPEC S3's default scenario.
+class LanderParams(Params):
+    """Parameters of the S3 plant (SI units); defaults = the default scenario.
 
     ``umax`` is 14.57 kg/s: the paper prints 15.74, but all its numbers are reproduced with
-    14.57 (the same digits transposed -- a misprint; SPEC S3, models/README.md).
+    14.57 (the same digits transposed -- a misprint; [choice], models/README.md).
     """
 
-    gL: float = 1.62          #: lunar gravity [m/s^2]
-    beta: float = 3050.0      #: exhaust velocity [m/s]
-    umax: float = 14.57       #: maximum fuel flow [kg/s]
-    h0: float = 150.0         #: initial altitude [m]
-    V0: float = 8.2           #: initial downward speed [m/s]
-    m0: float = 15000.0       #: initial mass [kg]
+    gL: float = param(1.62, "m/s2", "lunar gravity", positive=True)
+    beta: float = param(3050.0, "m/s", "exhaust velocity", positive=True)
+    umax: float = param(14.57, "kg/s", "maximum fuel flow (the paper's printed 15.74 is a "
+                        "misprint of 14.57)", positive=True)
+    h0: float = param(150.0, "m", "initial altitude")
+    V0: float = param(8.2, "m/s", "initial downward speed")
+    m0: float = param(15000.0, "kg", "initial mass", positive=True)
 
-    def validate(self) -> "LanderParams":
-        """Raise :class:`ParameterError` naming the first invalid parameter."""
-        for f in fields(self):
-            require_finite(f.name, getattr(self, f.name))
-        for name in ("gL", "beta", "umax", "m0"):
-            require_positive(name, getattr(self, name))
+    def check(self) -> None:
         if self.h0 < 0.0:
             raise ParameterError(f"parameter h0 must be >= 0 m, got {self.h0}")
-        return self
 
     def require_stoppable(self) -> "LanderParams":
         """Raise :class:`InfeasibleLandingError` unless full thrust exceeds the weight at m0."""
@@ -90,9 +93,6 @@ class LanderParams:
                 f"lander, no soft landing exists; raise umax above "
                 f"{self.gL * self.m0 / self.beta:.4g} kg/s")
         return self
-
-    def with_(self, **changes) -> "LanderParams":
-        return replace(self, **changes)
 
 
 def rhs(x, u, gL, beta):
@@ -241,9 +241,18 @@ def switch_height(V, m, umax, gL, beta):
 class OptimalLanding:
     """The exact fuel-optimal landing of S3 (coast, then full thrust to h = V = 0).
 
-    Attributes: switch time ``t_switch`` [s], final time ``T`` [s], state at the switch
-    ``h_switch`` [m], ``V_switch`` [m/s], ``fuel`` [kg], and the adjoints of the paper's
-    Pontryagin system ``psi1`` (constant), ``psi2_0`` = psi2(0), ``psi3_0`` = psi3(0).
+    Attributes
+    ----------
+    t_switch : float
+        Engine-on time [s].
+    T : float
+        Final (touchdown) time [s].
+    h_switch, V_switch : float
+        Altitude [m] and downward speed [m/s] at the switch.
+    fuel : float
+        Fuel burnt [kg].
+    psi1, psi2_0, psi3_0 : float
+        Adjoints of the paper's Pontryagin system: psi1 (constant), psi2(0), psi3(0).
     """
 
     t_switch: float
@@ -315,39 +324,52 @@ def optimal_landing(p: LanderParams = LanderParams()) -> OptimalLanding:
                           psi2_0=psi1 * p.V0 / g, psi3_0=psi3)
 
 
-class LanderIntegrator:
+class LanderIntegrator(Integrator):
     """Advance the S3 plant with RK4 sub-steps; stop at touchdown (h = h_contact, in the step).
 
-    The one integrator of the plant: the :class:`LunarLander` FMU owns one.  ``u`` is clipped to
-    ``[0, umax]`` and cut to 0 once the mass would fall below ``m_dry``.
+    The one integrator of the plant: the :class:`LunarLander` FMU owns one, and in-process code
+    (``synthesis.systems.lunar_landing.study.fly_feedback_in_process``) uses the same class.
+    ``u`` is clipped to ``[0, umax]`` and cut to 0 once the mass would fall below ``m_dry``.
+    ``status`` becomes ``REACHED`` at touchdown (``t_end`` its time, ``V_touchdown`` the downward
+    speed then) and ``LEFT_DOMAIN`` if the integration diverges; the state is frozen from then on.
+
+    Parameters
+    ----------
+    p : LanderParams
+    dt : float
+        RK4 sub-step [s].
+    m_dry : float
+        Mass below which the engine is cut [kg], in (0, m0).
+    h_contact : float
+        Altitude at which touchdown is declared [m], >= 0.
     """
 
-    def __init__(self, p: LanderParams, dt: float = DT_INTEGRATION, m_dry: float = 1.0,
+    def __init__(self, p: LanderParams, dt: float = DT_INTEGRATION, m_dry: float = M_DRY,
                  h_contact: float = H_CONTACT):
         self.p = p.validate()
         if not (math.isfinite(h_contact) and h_contact >= 0.0):
             raise ParameterError(f"parameter h_contact must be >= 0 m, got {h_contact!r}")
-        self.h_contact = h_contact
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ParameterError(f"integration step dt must be > 0 s, got {dt!r}")
         if not (math.isfinite(m_dry) and 0.0 < m_dry < p.m0):
             raise ParameterError(f"parameter m_dry must be in (0, m0) kg, got {m_dry!r}")
-        self.dt = dt
+        self.h_contact = h_contact
         self.m_dry = m_dry
         self.args = (p.gL, p.beta)
-        self.reset()
+        super().__init__(dt)
 
-    def reset(self):
-        p = self.p
-        self.t = 0.0
-        self.x = (p.h0, p.V0, p.m0)
-        self.touched_down = p.h0 <= self.h_contact
-        self.t_touchdown = 0.0 if self.touched_down else math.nan
-        self.V_touchdown = p.V0 if self.touched_down else math.nan
+    def initial_state(self) -> tuple:
+        return (self.p.h0, self.p.V0, self.p.m0)
+
+    def reset(self) -> None:
+        super().reset()
+        #: downward speed at touchdown [m/s] (NaN before)
+        self.V_touchdown = math.nan
+        if self.p.h0 <= self.h_contact:          # starts on the ground
+            self.V_touchdown = self.p.V0
+            self.end(REACHED, 0.0)
 
     def advance(self, t_end: float, u: float) -> None:
         """Integrate from ``self.t`` to ``t_end`` [s] with the fuel flow held at ``u`` [kg/s]."""
-        if self.touched_down:
+        if self.status:
             self.t = t_end
             return
         span = t_end - self.t
@@ -361,30 +383,28 @@ class LanderIntegrator:
                                    event=lambda y: y[0] - hc, tol=1e-13)
         if outcome == EVENT:
             self.x = (0.0, x[1], x[2])
-            self.t_touchdown = t
             self.V_touchdown = x[1]
-            self.touched_down = True
+            self.end(REACHED, t)
         else:
             self.x = x
+            if outcome == DIVERGED:
+                self.end(LEFT_DOMAIN, t)
         self.t = t_end
 
 
 class LunarLander(SlaveBase):
-    """FMU of the S3 plant: input fuel flow ``u``; outputs h, V, m, fuel, touchdown data."""
+    """FMU of the S3 plant: input fuel flow ``u``; outputs h, V, m, fuel, the touchdown speed and
+    the plant status (``status`` 1 = REACHED at touchdown, ``t_end`` its time)."""
 
     params_class = LanderParams
 
     description = ("S3 vertical lunar soft landing (h, V downward, m; fuel flow input); "
-                   "seed 002, Mozzhorina 2017")
+                   "Mozzhorina 2017")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.parameters([("gL", "lunar gravity [m/s2]"), ("beta", "exhaust velocity [m/s]"),
-                         ("umax", "maximum fuel flow (paper's 15.74 is a misprint of 14.57) "
-                                  "[kg/s]"),
-                         ("h0", "initial altitude [m]"), ("V0", "initial downward speed [m/s]"),
-                         ("m0", "initial mass [kg]")])
-        self.parameter("m_dry", 1.0, "mass below which the engine is cut (guard) [kg]")
+        self.parameters()
+        self.parameter("m_dry", M_DRY, "mass below which the engine is cut (guard) [kg]")
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.parameter("h_contact", H_CONTACT, "altitude at which touchdown is declared [m]")
         self.input("u", 0.0, "fuel flow, clipped to [0, umax] [kg/s]")
@@ -393,13 +413,9 @@ class LunarLander(SlaveBase):
         self.output("V", "downward speed [m/s]", getter=lambda: fi().x[1])
         self.output("m", "mass [kg]", getter=lambda: fi().x[2])
         self.output("fuel", "fuel used m0 - m [kg]", getter=lambda: fi().p.m0 - fi().x[2])
-        self.output("t_touchdown", "time of touchdown h = 0, -1 before [s]",
-                    getter=lambda: fi().t_touchdown if fi().touched_down else -1.0)
         self.output("V_touchdown", "downward speed at touchdown, 0 before [m/s]",
-                    getter=lambda: fi().V_touchdown if fi().touched_down else 0.0)
-        self.int_output("touched_down", "1 from touchdown (h <= h_contact, located inside the "
-                        "step) on [1]",
-                        getter=lambda: int(fi().touched_down))
+                    getter=lambda: fi().V_touchdown if fi().status == REACHED else 0.0)
+        self.status_outputs(lambda: fi().status, lambda: fi().t_end_output)
         self.apply_resource_defaults()
         self.prepare()
 

@@ -9,7 +9,7 @@ Planar point-mass descent over a spherical, non-rotating Mars with an exponentia
     ds/dt     = R V cos(gamma) / r
 
 gives the dynamic pressure ``q(t)`` and its rate ``dq/dt = q (-dh/dt / Hs + 2 dV/dt / V)``.  From
-them (seed 001, eq. 1; SPEC S2)::
+them (Lyubimov & Kurkina, eq. 1)::
 
     omega^2   = -mz_alpha q S L / I                  (precession frequency without roll)
     omega_dot = omega dq/dt / (2 q)                  (= eps f3 of eq. 1)
@@ -22,84 +22,84 @@ them (seed 001, eq. 1; SPEC S2)::
 paper's ``eps f1`` is the physical adiabatic term (``omega_dot`` is ``d omega / dt``, itself of
 order eps); ``eps`` scales the asymmetry moment: ``eps u`` is its angular acceleration [rad/s^2].
 
-The flight ends at the first time ``h`` reaches ``h_end`` (located inside the RK4 step).  This
-module is the one definition of these equations: the :class:`MarsCapsule` FMU, the rigid-body
-plant of :mod:`models.mars_6dof` (descent and aerodynamics) and the in-process code
+The flight ends at the first time ``h`` reaches ``h_end`` (located inside the RK4 step): the
+plant's ``status`` becomes REACHED (LEFT_DOMAIN if the integration diverges).  This module is the
+one definition of these equations: the :class:`MarsCapsule` FMU, the rigid-body plant of
+:mod:`descent_fmus.models.mars_6dof` (descent and aerodynamics) and the in-process code
 (:func:`simulate`, tests, benchmarks) call the same functions.
 
 References
 ----------
-Seed 001: V.V. Lyubimov, E.V. Kurkina, "Optimal control of the angle of attack of an asymmetric
-spacecraft in the Mars atmosphere", eqs. (1), (17) and section 4 (Mars Polar Lander data).
+V.V. Lyubimov, E.V. Kurkina, "Optimal control of the angle of attack of an asymmetric spacecraft
+in the Mars atmosphere", eqs. (1), (17) and section 4 (Mars Polar Lander data).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass
 
-from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from descent_fmus.models.integrators import DIVERGED, EVENT, advance_to
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.integrators import (DIVERGED, EVENT, LEFT_DOMAIN, REACHED, Integrator,
+                                             advance_to)
+from descent_fmus.models.params import ParameterError, Params, param
 
 __all__ = ["MarsParams", "descent", "precession", "rhs", "observe", "initial_state",
-           "Flight", "simulate", "MarsCapsule", "DT_INTEGRATION", "STEP", "T_MAX"]
+           "MarsIntegrator", "simulate", "MarsCapsule", "OUTPUTS", "DT_INTEGRATION", "STEP",
+           "T_MAX"]
 
-#: Default RK4 sub-step of the averaged plant [s] (tests/test_mars.py: against solve_ivp).
+#: Default RK4 sub-step of the averaged plant [s] (tests/test_mars_fmus.py: against solve_ivp).
 DT_INTEGRATION = 0.1
-#: Default communication step of the closed loop [s] (= synthesis.systems.mars.wiring.STEP).
+#: Communication step of the closed loops [s]: over one step the held control sees the phase
+#: theta advance by theta_dot * STEP <= 0.1 rad (theta_dot <= 1.95 rad/s).  Halving it changes
+#: alpha(150 s) by 0.3 % and alpha_end by 0.9 %; doubling it (0.1 s) by 1.5 % and 4.6 %
+#: (models/README.md, tests/test_mars_loop.py).
 STEP = 0.05
-#: Time limit of a flight [s] (the default descent reaches h_end at t ~ 660 s).
+#: Time limit of a flight [s] (the default descent reaches h_end = 10 km at t = 660.5 s).
 T_MAX = 1500.0
 
 
 @dataclass(frozen=True)
-class MarsParams:
-    """Parameters of the S2 plants (SI units); defaults = the scenario of SPEC S2.
+class MarsParams(Params):
+    """Parameters of the S2 plants (SI units); defaults = the default scenario.
 
     Values marked [choice] are ours (the paper gives no aerodynamic or atmospheric data and no
-    control parameters); models/README.md gives the reason for each.
+    control parameters); models/README.md gives the reason for each.  The others are the
+    paper's (Mars Polar Lander data).
     """
 
-    m: float = 576.0              #: capsule mass [kg] (paper)
-    Ix: float = 270.0             #: axial moment of inertia [kg m^2] (paper)
-    I: float = 443.0              #: transverse moment of inertia Iy = Iz [kg m^2] (paper)
-    S: float = 4.91               #: midsection area pi 1.25^2 [m^2] (paper's base radius)
-    L: float = 2.0                #: reference length [m] (paper's cone height)
-    Cd: float = 1.6               #: drag coefficient [1] ([choice])
-    mz_alpha: float = -0.1        #: restoring-moment slope [1/rad] ([choice])
-    rho0: float = 0.020           #: surface density of the exponential atmosphere [kg/m^3]
-    Hs: float = 11_100.0          #: density scale height [m] ([choice])
-    g0: float = 3.86              #: surface gravity [m/s^2] (paper)
-    R: float = 3_390_000.0        #: Mars mean radius [m] (paper)
-    V0: float = 3400.0            #: entry speed [m/s] (paper)
-    h0: float = 120_000.0         #: entry altitude [m] (paper)
-    gamma0: float = -0.017        #: entry path angle [rad] (paper)
-    h_end: float = 10_000.0       #: altitude that ends the descent [m] ([choice])
-    omega_x: float = 5.0          #: constant roll rate [rad/s] ([choice])
-    theta1: float = 0.3           #: phase of the asymmetry [rad] ([choice])
-    eps: float = 1.0              #: asymmetry-moment scale: eps u in [rad/s^2] ([choice])
-    alpha0: float = 0.2           #: initial spatial angle of attack [rad] ([choice])
-    theta0: float = 0.0           #: initial fast phase [rad] ([choice])
+    m: float = param(576.0, "kg", "capsule mass", positive=True)
+    Ix: float = param(270.0, "kg.m2", "axial moment of inertia", positive=True)
+    I: float = param(443.0, "kg.m2", "transverse moment of inertia Iy = Iz", positive=True)
+    S: float = param(4.91, "m2", "midsection area pi 1.25^2 (the paper's base radius)",
+                     positive=True)
+    L: float = param(2.0, "m", "reference length of the moment coefficient (the paper's cone "
+                     "height)", positive=True)
+    Cd: float = param(1.6, "1", "drag coefficient", positive=True)                # [choice]
+    mz_alpha: float = param(-0.1, "1/rad", "restoring-moment slope (< 0)")          # [choice]
+    rho0: float = param(0.020, "kg/m3", "surface density of the exponential atmosphere",
+                        positive=True)                                              # [choice]
+    Hs: float = param(11_100.0, "m", "density scale height", positive=True)        # [choice]
+    g0: float = param(3.86, "m/s2", "surface gravity", positive=True)
+    R: float = param(3_390_000.0, "m", "Mars radius", positive=True)
+    V0: float = param(3400.0, "m/s", "entry speed", positive=True)
+    h0: float = param(120_000.0, "m", "entry altitude", positive=True)
+    gamma0: float = param(-0.017, "rad", "entry path angle")
+    h_end: float = param(10_000.0, "m", "altitude that ends the descent")          # [choice]
+    omega_x: float = param(5.0, "rad/s", "constant roll rate (> 0: the model and the law "
+                           "assume a constant positive roll rate)", positive=True)  # [choice]
+    theta1: float = param(0.3, "rad", "phase of the asymmetry relative to theta")   # [choice]
+    eps: float = param(1.0, "rad/s2", "asymmetry-moment scale: eps*u is an angular "
+                       "acceleration", positive=True)                               # [choice]
+    alpha0: float = param(0.2, "rad", "initial spatial angle of attack")            # [choice]
+    theta0: float = param(0.0, "rad", "initial fast phase")                         # [choice]
 
-    def validate(self) -> "MarsParams":
-        """Raise :class:`ParameterError` naming the first invalid parameter."""
-        for f in fields(self):
-            require_finite(f.name, getattr(self, f.name))
-        for name in ("Ix", "I"):
-            if getattr(self, name) <= 0.0:
-                raise ParameterError(f"parameter {name} (moment of inertia) must be > 0 kg m2, "
-                                     f"got {getattr(self, name)!r}")
+    def check(self) -> None:
         if self.Ix > 2.0 * self.I:
             raise ParameterError(f"moments of inertia violate Ix <= Iy + Iz = 2 I: Ix={self.Ix}, "
                                  f"I={self.I} kg m2")
-        if self.omega_x <= 0.0:
-            raise ParameterError(f"parameter omega_x (roll rate) must be > 0 rad/s: the model "
-                                 f"and the law assume a constant positive roll rate, got "
-                                 f"{self.omega_x!r}")
         if self.mz_alpha >= 0.0:
             raise ParameterError(f"parameter mz_alpha must be < 0 (statically stable capsule), "
                                  f"got {self.mz_alpha!r}")
-        for name in ("m", "S", "L", "Cd", "rho0", "Hs", "g0", "R", "V0", "h0", "eps"):
-            require_positive(name, getattr(self, name))
         if not 0.0 <= self.h_end < self.h0:
             raise ParameterError(f"parameter h_end must satisfy 0 <= h_end < h0, got "
                                  f"h_end={self.h_end}, h0={self.h0}")
@@ -108,7 +108,6 @@ class MarsParams:
                                  f"{self.gamma0}")
         if not 0.0 <= self.alpha0 < math.pi / 2:
             raise ParameterError(f"parameter alpha0 must be in [0, pi/2) rad, got {self.alpha0}")
-        return self
 
     @property
     def ix_bar(self) -> float:
@@ -124,9 +123,6 @@ class MarsParams:
         return (self.Cd * self.S / self.m, -self.mz_alpha * self.S * self.L / self.I,
                 self.ix_bar, self.g0, self.R, self.rho0, 1.0 / self.Hs, self.omega_x,
                 self.theta1, self.eps)
-
-    def with_(self, **changes) -> "MarsParams":
-        return replace(self, **changes)
 
 
 def descent(V, gamma, h, kd, g0, R, rho0, inv_hs):
@@ -156,7 +152,7 @@ def descent(V, gamma, h, kd, g0, R, rho0, inv_hs):
 
 
 def precession(q, dq, kw, ix_bar, omega_x):
-    """Precession frequencies from the dynamic pressure (seed 001, eq. 1).
+    """Precession frequencies from the dynamic pressure (Lyubimov & Kurkina, eq. 1).
 
     Parameters
     ----------
@@ -213,64 +209,65 @@ def initial_state(p: MarsParams) -> tuple:
     return (p.V0, p.gamma0, p.h0, 0.0, p.alpha0, p.theta0)
 
 
-class Flight:
-    """Advance a Mars plant with RK4 sub-steps and stop exactly at ``h = h_end``.
+class MarsIntegrator(Integrator):
+    """Advance the averaged S2 plant with RK4 sub-steps and stop exactly at ``h = h_end``.
 
-    The one integrator of the S2 plants: both FMUs own one, in-process code uses the same class.
+    The one integrator of the S2 plants: the :class:`MarsCapsule` FMU owns one, in-process code
+    (:func:`simulate`) uses the same class, and the rigid-body plant
+    (:class:`descent_fmus.models.mars_6dof.Mars6DOFIntegrator`) subclasses it with its own
+    right-hand side, initial state and outputs (the altitude must be state element 2).
+    ``status`` becomes ``REACHED`` at h = h_end and ``LEFT_DOMAIN`` if the integration diverges
+    (e.g. V -> 0 with absurd parameters).
 
     Parameters
     ----------
     p : MarsParams
         Validated on construction.
     dt : float
-        RK4 sub-step [s].
-    f, x0, args, obs : optional
-        Right-hand side, initial state, its constants and the output function (defaults: the
-        averaged plant of this module); the altitude must be state element 2.
+        RK4 sub-step [s] (> 0).
     """
 
-    def __init__(self, p: MarsParams, dt: float = DT_INTEGRATION, f=rhs, x0=None, args=None,
-                 obs=observe):
-        self.p = p.validate()
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ParameterError(f"integration step dt must be > 0 s, got {dt!r}")
-        self.dt, self.f, self.obs_fn = dt, f, obs
-        self.args = p.constants() if args is None else args
-        self.x0 = initial_state(p) if x0 is None else tuple(x0)
-        self.reset()
+    #: right-hand side ``f(x, u, *p.constants())`` and output function ``observe(x, args)``
+    f = staticmethod(rhs)
+    observe = staticmethod(observe)
+    #: names of the values :meth:`outputs` returns (the FMU's Real outputs besides ``t_end``)
+    names = OUTPUTS
 
-    def reset(self):
-        self.t = 0.0
-        self.x = self.x0
-        self.done = False
-        self.diverged = False
-        self.t_end = math.nan
+    def __init__(self, p: MarsParams, dt: float = DT_INTEGRATION):
+        self.p = p.validate()
+        self.args = p.constants()
+        super().__init__(dt)
+
+    def initial_state(self) -> tuple:
+        return initial_state(self.p)
+
+    def reset(self) -> None:
+        super().reset()
         self._obs = None
 
     def outputs(self) -> tuple:
         """Output tuple at the current state (cached until the next step)."""
         if self._obs is None:
-            self._obs = self.obs_fn(self.x, self.args)
+            self._obs = self.observe(self.x, self.args)
         return self._obs
 
     def advance(self, t_end: float, u: float) -> None:
         """Integrate from ``self.t`` to ``t_end`` [s] with the control held at ``u``."""
-        if self.done or self.diverged:
+        if self.status:
             return
         h_end = self.p.h_end
         self._obs = None
         self.x, self.t, outcome = advance_to(self.f, self.x, self.t, t_end, self.dt,
                                              (u,) + self.args, event=lambda y: y[2] - h_end)
         if outcome == EVENT:
-            self.done = True
-            self.t_end = self.t
-        elif outcome == DIVERGED:   # e.g. V -> 0 with absurd parameters
-            self.diverged = True
+            self.end(REACHED, self.t)
+        elif outcome == DIVERGED:
+            self.end(LEFT_DOMAIN, self.t)
 
 
 def simulate(p: MarsParams = MarsParams(), control=None, step: float = STEP,
              dt: float = DT_INTEGRATION, t_max: float = T_MAX, record: bool = True,
-             flight: Flight | None = None):
+             integrator: MarsIntegrator | None = None):
     """Fly an S2 plant in-process, ``u = control(outputs)`` held over communication steps.
 
     Parameters
@@ -282,18 +279,19 @@ def simulate(p: MarsParams = MarsParams(), control=None, step: float = STEP,
         Communication step, RK4 sub-step and time limit [s].
     record : bool
         Keep the outputs and u at every communication point.
-    flight : Flight, optional
-        Another plant's integrator (e.g. :func:`models.mars_6dof.flight`).
+    integrator : MarsIntegrator, optional
+        Another plant's integrator (e.g. a
+        :class:`~descent_fmus.models.mars_6dof.Mars6DOFIntegrator`); default the averaged plant
+        with ``p`` and ``dt``.
 
     Returns
     -------
-    (Flight, dict)
+    (MarsIntegrator, dict)
         The finished integrator and ``{"t": [...], "u": [...], name: [...]}`` (lists).
     """
-    fl = flight or Flight(p, dt)
-    names = OUTPUTS if flight is None else getattr(flight, "names", OUTPUTS)
+    fl = integrator or MarsIntegrator(p, dt)
     rec = {"t": [], "u": []}
-    rec.update({n: [] for n in names})
+    rec.update({n: [] for n in fl.names})
     k = 0
     while True:
         y = fl.outputs()
@@ -301,9 +299,9 @@ def simulate(p: MarsParams = MarsParams(), control=None, step: float = STEP,
         if record:
             rec["t"].append(fl.t)
             rec["u"].append(u)
-            for n, v in zip(names, y):
+            for n, v in zip(fl.names, y):
                 rec[n].append(v)
-        if fl.done or fl.diverged or fl.t >= t_max - 1e-9:
+        if fl.status or fl.t >= t_max - 1e-9:
             break
         k += 1
         fl.advance(min(k * step, t_max), u)
@@ -311,28 +309,18 @@ def simulate(p: MarsParams = MarsParams(), control=None, step: float = STEP,
 
 
 class MarsCapsule(SlaveBase):
-    """FMU of the averaged S2 plant: input ``u``; outputs alpha, theta, omega, ... (OUTPUTS)."""
+    """FMU of the averaged S2 plant: input ``u``; outputs alpha, theta, omega, ... (OUTPUTS),
+    ``status`` and ``t_end``."""
 
     params_class = MarsParams
+    #: the plant's integrator (its ``names`` are the Real outputs)
+    integrator = MarsIntegrator
+    #: default RK4 sub-step [s]
+    DT = DT_INTEGRATION
 
     description = ("S2 asymmetric capsule descending in the Mars atmosphere: point-mass descent "
-                   "+ quasi-linear angle-of-attack equations; seed 001, Lyubimov & Kurkina")
+                   "+ quasi-linear angle-of-attack equations; Lyubimov & Kurkina")
 
-    #: (name, description) of the parameters, in MarsParams order.
-    PARAMETERS = [
-        ("m", "capsule mass [kg]"), ("Ix", "axial moment of inertia [kg m2]"),
-        ("I", "transverse moment of inertia Iy = Iz [kg m2]"), ("S", "midsection area [m2]"),
-        ("L", "reference length of the moment coefficient [m]"),
-        ("Cd", "drag coefficient [1]"), ("mz_alpha", "restoring-moment slope (< 0) [1/rad]"),
-        ("rho0", "surface density of the exponential atmosphere [kg/m3]"),
-        ("Hs", "density scale height [m]"), ("g0", "surface gravity [m/s2]"),
-        ("R", "Mars radius [m]"), ("V0", "entry speed [m/s]"), ("h0", "entry altitude [m]"),
-        ("gamma0", "entry path angle [rad]"), ("h_end", "altitude that ends the descent [m]"),
-        ("omega_x", "constant roll rate (> 0) [rad/s]"),
-        ("theta1", "phase of the asymmetry relative to theta [rad]"),
-        ("eps", "asymmetry-moment scale: eps*u is an angular acceleration [rad/s2]"),
-        ("alpha0", "initial spatial angle of attack [rad]"),
-        ("theta0", "initial fast phase [rad]")]
     OUTPUT_DESCRIPTIONS = {
         "alpha": "spatial angle of attack [rad]", "theta": "fast phase [rad]",
         "omega": "precession frequency sqrt(-mz_alpha q S L / I) [rad/s]",
@@ -341,42 +329,27 @@ class MarsCapsule(SlaveBase):
         "q": "dynamic pressure [Pa]", "q_dot": "rate of the dynamic pressure [Pa/s]",
         "theta_dot": "omega_x - omega_1 (near 0: resonance, model not valid) [rad/s]",
         "h": "altitude [m]", "V": "speed [m/s]", "gamma": "flight-path angle [rad]",
-        "s": "range along the surface [m]",
-        "wx": "body rate about the symmetry axis [rad/s]",
-        "wy": "body rate about y [rad/s]", "wz": "body rate about z [rad/s]",
-        "alpha_m1": "amplitude of the omega_1 precession mode (the averaged alpha) [rad]",
-        "theta_m1": "phase theta of the omega_1 precession mode [rad]",
-        "alpha_m2": "amplitude of the omega_2 precession mode [rad]"}
-    DT = DT_INTEGRATION
+        "s": "range along the surface [m]"}
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        self.parameters(self.PARAMETERS)
+        self.parameters()
         self.parameter("dt", self.DT, "RK4 sub-step of the internal integration [s]")
         self.input("u", 0.0, "control m^A: normalised asymmetry moment [1]")
         fl = lambda: self._fl  # noqa: E731
-        for k, name in enumerate(self.output_names()):
+        for k, name in enumerate(self.integrator.names):
             self.output(name, self.OUTPUT_DESCRIPTIONS[name],
                         getter=lambda k=k: fl().outputs()[k])
-        self.output("t_end", "time the descent reached h_end, -1 before [s]",
-                    getter=lambda: fl().t_end if fl().done else -1.0)
-        self.int_output("done", "1 from the time h <= h_end on (2 if the integration "
-                        "diverged) [1]", getter=lambda: 2 if fl().diverged else int(fl().done))
+        self.status_outputs(lambda: fl().status, lambda: fl().t_end_output)
         self.apply_resource_defaults()
         self.prepare()
 
-    def output_names(self):
-        return OUTPUTS
-
-    def make_flight(self, p: MarsParams) -> Flight:
-        return Flight(p, self.dt)
-
     def prepare(self) -> None:
         try:
-            self._fl = self.make_flight(self.params())
+            self._fl = self.integrator(self.params(), self.dt)
         except ParameterError:
             # invalid start values: keep a default plant until exit_initialization_mode reports
-            self._fl = self.make_flight(MarsParams())
+            self._fl = self.integrator(MarsParams(), self.DT)
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         u = self.u if math.isfinite(self.u) else 0.0

@@ -1,9 +1,9 @@
 """S2 check of the averaging: the capsule's full rigid-body rotation (Euler's equations).
 
-The same descent and aerodynamics as :mod:`models.mars` (functions :func:`descent` and
-:func:`precession` are shared), but instead of the averaged (alpha, theta) equations the body
-rates ``(wx, wy, wz)`` and the direction of the velocity in body axes ``v = (vx, vy, vz)``
-(a unit vector, x = symmetry axis) are integrated::
+The same descent and aerodynamics as :mod:`descent_fmus.models.mars` (functions
+:func:`descent` and :func:`precession` are shared), but instead of the averaged (alpha, theta)
+equations the body rates ``(wx, wy, wz)`` and the direction of the velocity in body axes
+``v = (vx, vy, vz)`` (a unit vector, x = symmetry axis) are integrated::
 
     dv/dt = v x w                                   (velocity direction fixed in inertial space)
     Ix dwx/dt = 0                                   (no axial moment: wx = omega_x)
@@ -18,8 +18,8 @@ Outputs: the spatial angle of attack ``alpha = atan2(sqrt(vy^2 + vz^2), vx)`` an
 
 With this convention the linearised equations, written for the complex angle of attack and
 split into the two precession modes omega_{1,2} = Ix_bar wx / 2 +- omega_a, give exactly the
-averaged equations of :mod:`models.mars` for the amplitude of the omega_1 mode (variation
-of constants; models/README.md).  The initial state is a pure omega_1 coning motion with
+averaged equations of :mod:`descent_fmus.models.mars` for the amplitude of the omega_1 mode
+(variation of constants; models/README.md).  The initial state is a pure omega_1 coning motion with
 amplitude ``alpha0`` and phase ``theta0`` -- the motion the averaged model describes.
 
 The rotation of the velocity vector by gravity (d gamma / dt) is neglected, as in the averaged
@@ -27,17 +27,19 @@ model: both plants see the same moments, so their difference is the averaging al
 
 References
 ----------
-Seed 001 (Lyubimov & Kurkina), eq. (1) and its source, Yu.M. Zabolotnov, Kosmicheskie
+V.V. Lyubimov, E.V. Kurkina, "Optimal control of the angle of attack of an asymmetric
+spacecraft in the Mars atmosphere", eq. (1), and its source, Yu.M. Zabolotnov, Kosmicheskie
 Issledovaniya 32(3), 1994 (quasi-linear equations of a capsule with small asymmetry).
 """
 from __future__ import annotations
 
 import math
 
-from descent_fmus.models.mars import (Flight, MarsCapsule, MarsParams, descent, precession)
+from descent_fmus.models.mars import (MarsCapsule, MarsIntegrator, MarsParams, descent,
+                                     precession)
 
-__all__ = ["rhs6", "observe6", "initial_state6", "flight", "MarsCapsule6DOF", "OUTPUTS6",
-           "DT_6DOF"]
+__all__ = ["rhs6", "observe6", "initial_state6", "Mars6DOFIntegrator", "MarsCapsule6DOF",
+           "OUTPUTS6", "DT_6DOF"]
 
 #: Default RK4 sub-step of the rigid-body plant [s]: the fastest body-axis motion (the omega_2
 #: mode, seen at wx - omega_2 ~ 5.3 rad/s) is resolved with ~60 steps per period.
@@ -48,7 +50,7 @@ _HALF_PI = 0.5 * math.pi
 def rhs6(x, u, kd, kw, ix_bar, g0, R, rho0, inv_hs, omega_x, theta1, eps):
     """Right-hand side, state ``(V, gamma, h, s, vx, vy, vz, wx, wy, wz)`` (SI units, rad/s).
 
-    Same arguments as :func:`models.mars.rhs`.
+    Same arguments as :func:`descent_fmus.models.mars.rhs`.
     """
     V, gamma, h, _, vx, vy, vz, wx, wy, wz = x
     dV, dg, dh, ds, q, _ = descent(V, gamma, h, kd, g0, R, rho0, inv_hs)
@@ -63,7 +65,8 @@ def rhs6(x, u, kd, kw, ix_bar, g0, R, rho0, inv_hs, omega_x, theta1, eps):
 
 
 def observe6(x, args):
-    """Outputs: the averaged plant's ``OUTPUTS`` followed by the body rates ``wx, wy, wz``."""
+    """Outputs :data:`OUTPUTS6`: the averaged plant's ``OUTPUTS``, the body rates ``wx, wy, wz``
+    and the precession modes ``alpha_m1, theta_m1, alpha_m2``."""
     kd, kw, ix_bar, g0, R, rho0, inv_hs, omega_x, _, _ = args
     V, gamma, h, s, vx, vy, vz, wx, wy, wz = x
     _, _, _, _, q, dq = descent(V, gamma, h, kd, g0, R, rho0, inv_hs)
@@ -109,23 +112,36 @@ def initial_state6(p: MarsParams) -> tuple:
     return (p.V0, p.gamma0, p.h0, 0.0, ca, vy, vz, omega_x, w1 * vy / ca, w1 * vz / ca)
 
 
-def flight(p: MarsParams, dt: float = DT_6DOF) -> Flight:
-    """The integrator of the rigid-body plant (``names`` = :data:`OUTPUTS6`)."""
-    fl = Flight(p, dt, f=rhs6, x0=initial_state6(p.validate()), obs=observe6)
-    fl.names = OUTPUTS6
-    return fl
+class Mars6DOFIntegrator(MarsIntegrator):
+    """The integrator of the rigid-body plant: :class:`MarsIntegrator` with :func:`rhs6`,
+    :func:`initial_state6` and the outputs :data:`OUTPUTS6`."""
+
+    f = staticmethod(rhs6)
+    observe = staticmethod(observe6)
+    names = OUTPUTS6
+
+    def __init__(self, p: MarsParams, dt: float = DT_6DOF):
+        super().__init__(p, dt)
+
+    def initial_state(self) -> tuple:
+        return initial_state6(self.p)
 
 
 class MarsCapsule6DOF(MarsCapsule):
     """FMU of the rigid-body S2 plant: same parameters, input and outputs as MarsCapsule, plus
-    the body rates ``wx wy wz``; ``alpha`` and ``theta`` are the instantaneous angles."""
+    the body rates ``wx wy wz`` and the precession modes; ``alpha`` and ``theta`` are the
+    instantaneous angles."""
 
-    description = ("S2 asymmetric capsule in the Mars atmosphere: point-mass descent + rigid-body "
-                   "rotation (Euler's equations); check of the averaging of seed 001")
+    integrator = Mars6DOFIntegrator
     DT = DT_6DOF
 
-    def output_names(self):
-        return OUTPUTS6
+    description = ("S2 asymmetric capsule in the Mars atmosphere: point-mass descent + rigid-body "
+                   "rotation (Euler's equations); check of the averaging of Lyubimov & Kurkina")
 
-    def make_flight(self, p: MarsParams) -> Flight:
-        return flight(p, self.dt)
+    OUTPUT_DESCRIPTIONS = dict(
+        MarsCapsule.OUTPUT_DESCRIPTIONS,
+        wx="body rate about the symmetry axis [rad/s]",
+        wy="body rate about y [rad/s]", wz="body rate about z [rad/s]",
+        alpha_m1="amplitude of the omega_1 precession mode (the averaged alpha) [rad]",
+        theta_m1="phase theta of the omega_1 precession mode [rad]",
+        alpha_m2="amplitude of the omega_2 precession mode [rad]")

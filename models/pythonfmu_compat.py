@@ -1,4 +1,14 @@
-"""Work around pythonfmu 0.7's reference counting when a slave callback raises.
+"""Work around pythonfmu 0.7's reference counting (two places).
+
+1. Instantiation.  To find the slave class, pythonfmu 0.7 imports the FMU's entry module,
+   executes its code once more in the module's namespace and then releases one reference to
+   that namespace (a borrowed reference it never took).  An entry module that defines the class
+   itself survives a few instantiations on the references its functions hold; the short entry
+   modules of this project (``from ... import Class``) would lose their namespace on the second
+   instance in a process.  :func:`balance_namespace`, called by the entry module, takes one
+   reference each time the module's code runs, which is exactly what pythonfmu releases.
+
+2. A slave callback that raises.
 
 When a Python callback of a pythonfmu FMU raises (e.g. ``exit_initialization_mode`` rejecting a
 parameter, which is how an FMU of this project reports fmi2Error), the C++ wrapper
@@ -18,7 +28,7 @@ from __future__ import annotations
 import ctypes
 import functools
 
-__all__ = ["keep_refs_on_error", "GUARDED_METHODS"]
+__all__ = ["keep_refs_on_error", "GUARDED_METHODS", "balance_namespace"]
 
 #: Slave methods that pythonfmu calls from C++ and that may raise (SlaveBase wraps them all).
 GUARDED_METHODS = ("setup_experiment", "enter_initialization_mode", "exit_initialization_mode",
@@ -27,6 +37,11 @@ GUARDED_METHODS = ("setup_experiment", "enter_initialization_mode", "exit_initia
 _incref = ctypes.pythonapi.Py_IncRef
 _incref.argtypes = [ctypes.py_object]
 _incref.restype = None
+
+
+def balance_namespace(namespace: dict) -> None:
+    """Take one reference to an FMU entry module's namespace (see the module docstring, 1)."""
+    namespace.setdefault("_pythonfmu_references", []).append(namespace)
 
 
 def keep_refs_on_error(method):

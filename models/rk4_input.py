@@ -1,14 +1,15 @@
 """RK4 with a control that is linear in time over the step (first-order hold), on tuples.
 
-Used by the telescope plants (S4) inside their FMUs and by :mod:`synthesis.methods.direct_method`, so
-that the solver and the FMU replay integrate the same piecewise-linear control with the same
-formula (identical sub-steps give identical results to rounding).
+Used by the telescope plants (S4) inside their FMUs and by
+:mod:`synthesis.methods.direct_method`, so that the solver and the FMU replay integrate the same
+piecewise-linear control with the same formula (identical sub-steps give identical results to
+rounding).
 
 ``f(x, u)`` returns the derivative tuple of the state tuple ``x`` for the control tuple ``u``.
 
 References
 ----------
-Seed 003 (Voronov 2009), ch. 2: the controls are sought in the class of piecewise-linear
+S.A. Voronov, PhD thesis (2009), ch. 2: the controls are sought in the class of piecewise-linear
 functions of time.
 """
 from __future__ import annotations

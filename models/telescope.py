@@ -14,13 +14,15 @@ Gimbal axes ``g_j`` along the six non-parallel face normals of a regular dodecah
 ``K = R(lam) (I w + k)``.
 
 This module holds the only definition of these equations (:func:`make_rigid_rhs`); the
-:class:`Telescope` FMU, the flexible model (``models/flexible_telescope.py``) and the direct method
-(``synthesis/direct_method.py``) all call it.  :func:`rigid_jacobian` is its analytic
-linearisation (checked against finite differences in tests/test_telescope.py).
+:class:`Telescope` FMU, the flexible model (``models/telescope_flexible.py``) and the
+reorientation by the direct method (``synthesis/systems/telescope/reorientation.py``) all call
+it.  :func:`rigid_jacobian` is its analytic linearisation (checked against finite differences in
+``tests/test_telescope_model.py``).  :class:`AttitudeIntegrator` is the one integrator of the
+telescope plants (first-order hold of the gimbal rates, ``models/rk4_input.py``).
 
 References
 ----------
-Seed 003: S.A. Voronov, PhD thesis (2009), ch. 2, Example 1, eqs. (8)-(9); SPEC S4.
+S.A. Voronov, PhD thesis (2009), ch. 2, Example 1, eqs. (8)-(9).
 """
 from __future__ import annotations
 
@@ -28,24 +30,28 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-
-from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
-from descent_fmus.models.rk4_input import propagate_linear_input
 from pythonfmu import Fmi2Causality
 
-__all__ = ["PHI", "GIMBAL_AXES", "TelescopeParams", "gimbal_vectors", "make_rigid_rhs",
-           "rigid_jacobian", "quat_to_matrix", "body_momentum", "inertial_momentum",
-           "gyro_momentum", "singularity_measure", "envelope_radius", "required_gyro_momentum",
-           "INITIAL_STATE", "TARGET_LAM", "TARGET_W", "T_DEFAULT", "AttitudeIntegrator",
-           "Telescope", "DT_INTEGRATION", "deg"]
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.integrators import LEFT_DOMAIN, Integrator
+from descent_fmus.models.params import (ParameterError, Params, description_of, param,
+                                        require_finite, unit_of)
+from descent_fmus.models.rk4_input import propagate_linear_input
+
+__all__ = ["PHI", "GIMBAL_AXES", "AXES", "TelescopeParams", "gimbal_vectors", "gyro_sums",
+           "quaternion_rate", "make_rigid_rhs", "rigid_jacobian", "quat_to_matrix",
+           "body_momentum", "inertial_momentum", "gyro_momentum", "singularity_measure",
+           "envelope_radius", "required_gyro_momentum", "INITIAL_STATE", "TARGET_LAM",
+           "TARGET_W", "T_DEFAULT", "AttitudeIntegrator", "Telescope", "INERTIA_NAMES",
+           "DT_INTEGRATION", "deg"]
 
 PHI = (1.0 + math.sqrt(5.0)) / 2.0
-#: Gimbal axes (unnormalised): six non-parallel face normals of a regular dodecahedron (SPEC S4).
+#: Gimbal axes (unnormalised): six non-parallel face normals of a regular dodecahedron.
 GIMBAL_AXES = ((0.0, 1.0, PHI), (0.0, 1.0, -PHI), (1.0, PHI, 0.0), (-1.0, PHI, 0.0),
                (PHI, 0.0, 1.0), (PHI, 0.0, -1.0))
 #: Default RK4 sub-step inside the FMU [s]; the direct method uses the same sub-steps.
 DT_INTEGRATION = 0.025
-#: Reorientation time of SPEC S4 [s].
+#: Reorientation time T of Voronov (2009), Example 1 [s].
 T_DEFAULT = 40.0
 
 
@@ -56,9 +62,9 @@ def deg(x: float) -> float:
 
 _C15, _S15 = math.cos(deg(15.0)), math.sin(deg(15.0))
 _C10, _S10 = math.cos(deg(10.0)), math.sin(deg(10.0))
-#: SPEC S4 initial state (lam, w [rad/s], beta [rad]).
+#: Initial state of the reorientation, Voronov (2009) Example 1 (lam, w [rad/s], beta [rad]).
 INITIAL_STATE = (_C15, 0.0, _S15, 0.0, 0.0, deg(0.4), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, -math.pi)
-#: SPEC S4 target quaternion and body rate [rad/s] at t = T.
+#: Target quaternion and body rate [rad/s] at t = T, Voronov (2009) Example 1.
 TARGET_LAM = (_C10, _S10 / math.sqrt(2.0), 0.0, _S10 / math.sqrt(2.0))
 TARGET_W = (deg(-0.3), 0.0, deg(-0.3))
 
@@ -72,13 +78,18 @@ def _unit(a):
     return (a[0] / n, a[1] / n, a[2] / n)
 
 
-def gimbal_vectors(rotor_ref: str = "y"):
+#: Body axes by name, for ``rotor_ref``.
+AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
+
+
+def gimbal_vectors(rotor_ref="y"):
     """Unit gimbal axes ``g_j`` and the rotor axes ``a_j`` (beta=0), ``b_j = g_j x a_j``.
 
-    ``rotor_ref`` picks ``a_j = normalize(g_j x e_ref)``: ``"y"`` (default, SPEC's suggestion) or
-    ``"z"``.
+    ``rotor_ref`` is the reference direction ``e_ref`` of ``a_j = normalize(g_j x e_ref)``: a
+    body axis by name (``"y"``, the default [choice], models/README.md; ``"z"`` gives a harder
+    variant) or a 3-vector in body axes.
     """
-    e = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}[rotor_ref]
+    e = AXES[rotor_ref] if isinstance(rotor_ref, str) else tuple(rotor_ref)
     g = [_unit(v) for v in GIMBAL_AXES]
     a = [_unit(_cross(gj, e)) for gj in g]
     b = [_cross(gj, aj) for gj, aj in zip(g, a)]
@@ -86,29 +97,27 @@ def gimbal_vectors(rotor_ref: str = "y"):
 
 
 @dataclass(frozen=True)
-class TelescopeParams:
-    """Parameters of the rigid S4 gyrostat (SI units), defaults = SPEC S4.
+class TelescopeParams(Params):
+    """Parameters of the rigid S4 gyrostat (SI units); defaults = Voronov (2009), Example 1.
 
-    Attributes
-    ----------
-    inertia : tuple of 9 float
-        Inertia tensor I, row-major [kg m^2] (seed 003, Example 1).
-    h : float
-        Rotor angular momentum of each gyrodyne [N m s].
-    rotor_ref : str
-        Reference axis of the rotor directions a_j = normalize(g_j x e_ref) ([choice]).
+    ``rotor_ref`` may also be given as a body axis name (``"x"``, ``"y"``, ``"z"``); it is
+    stored as the 3-vector.
     """
 
-    inertia: tuple = (25000.0, -100.0, -100.0, -100.0, 10000.0, 100.0, -100.0, 100.0, 18000.0)
-    h: float = 250.0
-    rotor_ref: str = "y"
+    inertia: tuple = param((25000.0, -100.0, -100.0, -100.0, 10000.0, 100.0, -100.0, 100.0,
+                            18000.0), "kg.m2", "inertia tensor I (row-major 3x3)")
+    h: float = param(250.0, "N.m.s", "rotor angular momentum of each gyrodyne", positive=True)
+    rotor_ref: tuple = param(AXES["y"], "1", "reference direction e_ref of the rotor axes at "
+                             "beta = 0, a_j = normalize(g_j x e_ref), body axes [choice]")
 
-    def validate(self) -> "TelescopeParams":
+    def __post_init__(self):
+        if isinstance(self.rotor_ref, str) and self.rotor_ref in AXES:
+            object.__setattr__(self, "rotor_ref", AXES[self.rotor_ref])
+
+    def check(self) -> None:
         if len(self.inertia) != 9:
             raise ParameterError("parameter inertia needs 9 entries (row-major 3x3) [kg m2]")
-        for i, v in enumerate(self.inertia):
-            require_finite(f"inertia[{i + 1}]", v)
-        I = np.array(self.inertia).reshape(3, 3)
+        I = np.array(self.inertia, float).reshape(3, 3)
         if not np.allclose(I, I.T):
             raise ParameterError("inertia tensor must be symmetric")
         ev = np.linalg.eigvalsh(I)
@@ -117,10 +126,15 @@ class TelescopeParams:
         e = sorted(ev)
         if e[0] + e[1] < e[2] * (1 - 1e-12):
             raise ParameterError(f"inertia tensor violates the triangle inequality: {ev}")
-        require_positive("h", self.h)
-        if self.rotor_ref not in ("x", "y", "z"):
-            raise ParameterError(f"rotor_ref must be 'x', 'y' or 'z', got {self.rotor_ref!r}")
-        return self
+        if len(self.rotor_ref) != 3:
+            raise ParameterError(f"parameter rotor_ref needs 3 entries (a direction in body "
+                                 f"axes) or an axis name 'x', 'y', 'z', got {self.rotor_ref!r}")
+        e_ref = np.array(self.rotor_ref, float)
+        n = float(np.linalg.norm(e_ref))
+        if n == 0.0 or any(np.linalg.norm(np.cross(_unit(g), e_ref)) <= 1e-9 * n
+                           for g in GIMBAL_AXES):
+            raise ParameterError(f"parameter rotor_ref {self.rotor_ref} is zero or along a "
+                                 "gimbal axis: it defines no rotor direction")
 
     @property
     def I(self) -> np.ndarray:  # noqa: E743
@@ -156,7 +170,7 @@ def gyro_sums(x, u, gy, cos=math.cos, sin=math.sin):
 
 
 def quaternion_rate(l0, l1, l2, l3, w1, w2, w3):
-    """d(lambda)/dt = 1/2 A(omega) lambda (SPEC S4), on plain floats."""
+    """d(lambda)/dt = 1/2 A(omega) lambda (Voronov 2009), on plain floats."""
     return (0.5 * (-w1 * l1 - w2 * l2 - w3 * l3),
             0.5 * (w1 * l0 + w3 * l2 - w2 * l3),
             0.5 * (w2 * l0 - w3 * l1 + w1 * l3),
@@ -166,7 +180,8 @@ def quaternion_rate(l0, l1, l2, l3, w1, w2, w3):
 def make_rigid_rhs(p: TelescopeParams):
     """Return ``f(x, u)``: the S4 rigid gyrostat right-hand side on tuples (13 states, 6 controls).
 
-    The returned closure works on plain floats (fast for a 13-element state, DESIGN.md).
+    The returned closure works on plain floats (several times faster than NumPy for a
+    13-element state, ``models/integrators.py``).
     """
     p.validate()
     Ii = np.linalg.inv(p.I)
@@ -304,58 +319,79 @@ def required_gyro_momentum(x0, lam_f, w_f, p: TelescopeParams) -> np.ndarray:
     return quat_to_matrix(lam_f).T @ K - p.I @ np.asarray(w_f, float)
 
 
-class AttitudeIntegrator:
+class AttitudeIntegrator(Integrator):
     """Advance ``x`` under a piecewise-linear control with RK4 sub-steps of at most ``dt`` [s].
 
-    The one integrator of the telescope plants: the FMUs own one, in-process code uses it too.
+    The one integrator of the telescope plants (rigid and flexible: ``rhs`` decides), owned by
+    their FMUs.  The reorientation has no terminal condition, so ``status`` stays ``RUNNING``
+    up to the stop time; it becomes ``LEFT_DOMAIN`` if the integration diverges (a non-finite
+    state or an arithmetic error), and the state stays the last finite one, at ``t_end``.
+
+    Parameters
+    ----------
+    rhs : callable
+        ``f(x, u)`` on tuples of floats (:func:`make_rigid_rhs`, or the flexible model's).
+    x0 : sequence of float
+        Initial state.
+    dt : float
+        Largest RK4 sub-step [s] (> 0).
     """
 
     def __init__(self, rhs, x0, dt: float = DT_INTEGRATION):
-        if not (math.isfinite(dt) and dt > 0.0):
-            raise ParameterError(f"integration step dt must be > 0 [s], got {dt!r}")
-        self.rhs, self.dt = rhs, dt
+        self.rhs = rhs
         self.x0 = tuple(float(v) for v in x0)
-        self.reset()
+        super().__init__(dt)
 
-    def reset(self):
-        self.t = 0.0
-        self.x = self.x0
-        self.diverged = False
+    def initial_state(self) -> tuple:
+        return self.x0
 
     def advance(self, t_end: float, u, du) -> None:
         """Integrate to ``t_end`` with ``u(t) = u + du (t - self.t)`` (first-order hold)."""
         span = t_end - self.t
-        if span <= 0.0 or self.diverged:
+        if span <= 0.0 or self.status:
             return
         n = max(1, math.ceil(span / self.dt - 1e-9))
-        x = propagate_linear_input(self.rhs, self.x, span, u, du, n)
-        if not all(math.isfinite(v) for v in x):
-            self.diverged = True
+        try:
+            x = propagate_linear_input(self.rhs, self.x, span, u, du, n)
+        except (ArithmeticError, ValueError):
+            x = None
+        if x is None or not all(math.isfinite(v) for v in x):
+            self.end(LEFT_DOMAIN, self.t)
             return
         self.x, self.t = x, t_end
 
 
+#: Names of the FMU parameters holding the inertia tensor, row-major.
+INERTIA_NAMES = ("I11", "I12", "I13", "I21", "I22", "I23", "I31", "I32", "I33")
+
+
 class Telescope(SlaveBase):
     """FMU of the rigid S4 telescope: inputs gimbal rates and their slopes; outputs the state,
-    inertial angular momentum and the CMG singularity measure.
+    inertial angular momentum, the CMG singularity measure and the status.
 
     The control over a communication step ``[t, t + H]`` is ``u + du (s - t)``: with ``du`` = 0 a
     zero-order hold, with the ProgramController's slopes an exact replay of a piecewise-linear
-    program (first-order hold).
+    program (first-order hold).  ``status`` (:mod:`models.integrators`) stays 0 (running) up to
+    the stop time -- the reorientation has no terminal condition -- and becomes 3 if the
+    integration diverges.
     """
 
+    params_class = TelescopeParams
+
     description = ("S4 orbital telescope, rigid gyrostat with six gyrodynes (dodecahedron); "
-                   "seed 003, Voronov 2009")
-    N_EXTRA = 0
+                   "Voronov 2009")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        d = TelescopeParams()
-        names = ("I11", "I12", "I13", "I21", "I22", "I23", "I31", "I32", "I33")
-        self._inertia = list(d.inertia)
-        for k, n in enumerate(names):
-            self.parameter(n, d.inertia[k], f"inertia tensor entry {n} [kg m2]")
-        self.parameter("h", d.h, "rotor angular momentum of each gyrodyne [N m s]")
+        inertia = TelescopeParams().inertia
+        what = description_of(TelescopeParams, "inertia", with_unit=False)
+        unit = unit_of(TelescopeParams, "inertia")
+        for name, value in zip(INERTIA_NAMES, inertia):
+            self.parameter(name, value, f"{what}, entry {name} [{unit}]")
+        self.parameters(["h"])
+        self.rotor_ref = list(TelescopeParams().rotor_ref)
+        self.real_array("rotor_ref", self.rotor_ref, Fmi2Causality.parameter,
+                        description_of(TelescopeParams, "rotor_ref"))
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.lam_init = list(INITIAL_STATE[:4])
         self.w_init = list(INITIAL_STATE[4:7])
@@ -390,8 +426,7 @@ class Telescope(SlaveBase):
         self.output("lam_norm", "quaternion norm |lambda| (first integral, = 1) [1]",
                     getter=lambda: math.sqrt(sum(v * v for v in x()[:4])))
         self._register_extra_outputs()
-        self.int_output("diverged", "1 if the integration produced a non-finite state [1]",
-                        getter=lambda: int(self._ig.diverged))
+        self.status_outputs(lambda: self._ig.status, lambda: self._ig.t_end_output)
         self.apply_resource_defaults()
         self.prepare()
 
@@ -405,9 +440,10 @@ class Telescope(SlaveBase):
     def _momentum(self):
         return inertial_momentum(self._ig.x, self._params)
 
-    def _telescope_params(self) -> TelescopeParams:
-        return TelescopeParams(inertia=(self.I11, self.I12, self.I13, self.I21, self.I22,
-                                        self.I23, self.I31, self.I32, self.I33), h=self.h)
+    def params(self) -> TelescopeParams:
+        """The current parameter values (the inertia from ``I11..I33``)."""
+        return TelescopeParams(inertia=tuple(getattr(self, n) for n in INERTIA_NAMES), h=self.h,
+                               rotor_ref=tuple(self.rotor_ref))
 
     def _initial_state(self):
         return tuple(self.lam_init) + tuple(self.w_init) + tuple(self.beta_init)
@@ -416,8 +452,7 @@ class Telescope(SlaveBase):
         return make_rigid_rhs(self._params)
 
     def check_parameters(self) -> None:
-        self._telescope_params().validate()
-        require_positive("dt", self.dt)
+        super().check_parameters()
         for n, v in zip(("lam_init",) * 4 + ("w_init",) * 3 + ("beta_init",) * 6,
                         self._initial_state()):
             require_finite(n, v)
@@ -426,7 +461,7 @@ class Telescope(SlaveBase):
             raise ParameterError(f"lam_init must be a unit quaternion, |lam_init| = {nrm}")
 
     def prepare(self) -> None:
-        self._params = self._telescope_params()
+        self._params = self.params()
         self._ig = AttitudeIntegrator(self._make_rhs(), self._initial_state(), self.dt)
 
     def do_step(self, current_time: float, step_size: float) -> bool:

@@ -2,7 +2,7 @@
 
 State ``x = (lam[4], w[3], beta[6], eta[4], deta[4])`` (21): the rigid state of
 ``models/telescope.py`` followed by the modal coordinates ``eta`` [sqrt(kg) m] (mass-normalised:
-panel 1 modes 1-2, panel 2 modes 1-2) and their rates.  Hybrid-coordinates model (seed 003,
+panel 1 modes 1-2, panel 2 modes 1-2) and their rates.  Hybrid-coordinates model (Voronov 2009,
 Example 2, eq. (10)):
 
     I dw/dt + D^T d2eta/dt2 + w x (I w + k + D^T deta/dt) + dk/dt = 0
@@ -22,20 +22,24 @@ about y (|D| = 5 sqrt(kg) m), damping ratio 0.005 for all modes.  With these val
 solution flown on the flexible model misses by ~8e-5 -- the order of the deviations the thesis
 reports (1e-4 ... 1e-5) between its full and reduced models.
 
+The FMU integrates with the rigid model's :class:`~models.telescope.AttitudeIntegrator` (the
+right-hand side differs), so it follows the same status convention.
+
 References
 ----------
-Seed 003: S.A. Voronov, PhD thesis (2009), ch. 2, Example 2 (non-rigid telescope).
+S.A. Voronov, PhD thesis (2009), ch. 2, Example 2 (non-rigid telescope).
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
+from pythonfmu import Fmi2Causality
 
-from descent_fmus.models.fmu_support import ParameterError, require_finite
-from descent_fmus.models.telescope import (AttitudeIntegrator, Telescope, TelescopeParams, gyro_momentum,
-                              gyro_sums, quat_to_matrix, quaternion_rate)
+from descent_fmus.models.params import ParameterError, Params, description_of, param
+from descent_fmus.models.telescope import (Telescope, TelescopeParams, gyro_momentum, gyro_sums,
+                                           quat_to_matrix, quaternion_rate)
 
 __all__ = ["PanelParams", "make_flexible_rhs", "flexible_inertial_momentum", "FlexibleTelescope",
            "N_MODES", "flexible_initial_state"]
@@ -45,44 +49,41 @@ N_MODES = 4
 
 
 @dataclass(frozen=True)
-class PanelParams:
+class PanelParams(Params):
     """Solar-panel modes ([choice]; see the module docstring and models/README.md).
 
-    Attributes
-    ----------
-    coupling : tuple of 12 float
-        D, row-major (4 modes x 3 body axes) [sqrt(kg) m].
-    freq : tuple of 4 float
-        Modal frequencies [Hz].
-    zeta : tuple of 4 float
-        Damping ratios [1].
+    :meth:`validate` with the body's :class:`~models.telescope.TelescopeParams` also checks that
+    the panels do not outweigh the body (``I - D^T D`` positive definite).
     """
 
-    coupling: tuple = (40.0, 0.0, 0.0,
-                       0.0, 5.0, 0.0,
-                       -40.0, 0.0, 0.0,
-                       0.0, 5.0, 0.0)
-    freq: tuple = (0.20, 0.60, 0.20, 0.60)
-    zeta: tuple = (0.005, 0.005, 0.005, 0.005)
+    coupling: tuple = param((40.0, 0.0, 0.0,
+                             0.0, 5.0, 0.0,
+                             -40.0, 0.0, 0.0,
+                             0.0, 5.0, 0.0), "sqrt(kg).m",
+                            "rotation-elastic coupling D, row-major 4 modes x 3 axes")
+    freq: tuple = param((0.20, 0.60, 0.20, 0.60), "Hz", "modal frequencies")
+    zeta: tuple = param((0.005, 0.005, 0.005, 0.005), "1", "modal damping ratios")
 
     @property
     def D(self) -> np.ndarray:
         return np.array(self.coupling, float).reshape(N_MODES, 3)
 
-    def validate(self, p: TelescopeParams) -> "PanelParams":
-        for name in ("coupling", "freq", "zeta"):
-            for i, v in enumerate(getattr(self, name)):
-                require_finite(f"{name}[{i + 1}]", v)
+    def check(self) -> None:
         if len(self.coupling) != 3 * N_MODES or len(self.freq) != N_MODES \
                 or len(self.zeta) != N_MODES:
             raise ParameterError(f"panel data need 12 couplings, {N_MODES} frequencies and "
                                  f"{N_MODES} damping ratios")
         if min(self.freq) <= 0.0 or min(self.zeta) < 0.0:
             raise ParameterError("modal frequencies must be > 0 [Hz] and damping ratios >= 0")
-        ev = np.linalg.eigvalsh(p.I - self.D.T @ self.D)
-        if ev[0] <= 0.0:
-            raise ParameterError("coupling too strong: I - D^T D must be positive definite "
-                                 f"(eigenvalues {ev}) -- the panels cannot outweigh the body")
+
+    def validate(self, body: TelescopeParams | None = None) -> "PanelParams":
+        """:meth:`Params.validate`, then (given the ``body``) the coupling against its inertia."""
+        super().validate()
+        if body is not None:
+            ev = np.linalg.eigvalsh(body.I - self.D.T @ self.D)
+            if ev[0] <= 0.0:
+                raise ParameterError("coupling too strong: I - D^T D must be positive definite "
+                                     f"(eigenvalues {ev}) -- the panels cannot outweigh the body")
         return self
 
 
@@ -157,18 +158,15 @@ class FlexibleTelescope(Telescope):
     plus the modal coordinates ``eta1..eta4`` and the panel parameters."""
 
     description = ("S4 orbital telescope with two flexible solar panels (2 modes each), six "
-                   "gyrodynes; seed 003, Voronov 2009, Example 2")
+                   "gyrodynes; Voronov 2009, Example 2")
 
     def _register_extra_parameters(self):
         d = PanelParams()
-        self.coupling = list(d.coupling)
-        self.freq = list(d.freq)
-        self.zeta = list(d.zeta)
-        from pythonfmu import Fmi2Causality
-        self.real_array("coupling", self.coupling, Fmi2Causality.parameter,
-                        "rotation-elastic coupling D, row-major 4 modes x 3 axes [sqrt(kg) m]")
-        self.real_array("freq", self.freq, Fmi2Causality.parameter, "modal frequencies [Hz]")
-        self.real_array("zeta", self.zeta, Fmi2Causality.parameter, "modal damping ratios [1]")
+        for f in fields(PanelParams):
+            values = list(getattr(d, f.name))
+            setattr(self, f.name, values)
+            self.real_array(f.name, values, Fmi2Causality.parameter,
+                            description_of(PanelParams, f.name))
 
     def _register_extra_outputs(self):
         for k in range(N_MODES):
@@ -176,22 +174,21 @@ class FlexibleTelescope(Telescope):
                         f"{k % 2 + 1}) [sqrt(kg) m]", getter=lambda k=k: self._ig.x[13 + k])
 
     def _panel_params(self) -> PanelParams:
-        return PanelParams(coupling=tuple(self.coupling), freq=tuple(self.freq),
-                           zeta=tuple(self.zeta))
+        return PanelParams(**{f.name: tuple(getattr(self, f.name)) for f in fields(PanelParams)})
 
     def _momentum(self):
-        return flexible_inertial_momentum(self._ig.x, self._params, self._panel_params())
+        return flexible_inertial_momentum(self._ig.x, self._params, self._panels)
 
     def _initial_state(self):
         return flexible_initial_state(super()._initial_state())
 
     def _make_rhs(self):
-        return make_flexible_rhs(self._params, self._panel_params())
+        return make_flexible_rhs(self._params, self._panels)
 
     def check_parameters(self) -> None:
         super().check_parameters()
-        self._panel_params().validate(self._telescope_params())
+        self._panel_params().validate(self.params())
 
-
-# keep the name visible for readers: the FMU integrates with the same class as the rigid one
-_ = AttitudeIntegrator
+    def prepare(self) -> None:
+        self._panels = self._panel_params()
+        super().prepare()

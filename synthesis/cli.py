@@ -9,7 +9,7 @@ One pattern: general commands act on any problem, system commands are
     descent-fmus reentry fly | bound | robustness
     descent-fmus mars fly
     descent-fmus lunar-landing solve | fly
-    descent-fmus telescope reorient
+    descent-fmus telescope reorient | write-programs
     descent-fmus lunar-descent report
 
 Every command takes ``--json``; ``--plot FILE.png`` writes a figure (nothing is written unless
@@ -22,18 +22,19 @@ import os
 import sys
 from pathlib import Path
 
-from descent_fmus.synthesis.cli_common import (CliError, add_common_options, emit, fmu_folder,
-                                               nonnegative_int, positive_int)
+from descent_fmus.synthesis.cli_common import (CliError, OneLineParser, add_common_options,
+                                               emit, fmu_folder, nonnegative_int, positive_int)
 
 __all__ = ["main", "build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:
     from descent_fmus.synthesis.registry import all_systems
-    ap = argparse.ArgumentParser(prog="descent-fmus", description=__doc__.splitlines()[0],
-                                 formatter_class=argparse.RawDescriptionHelpFormatter,
-                                 epilog="\n".join(__doc__.splitlines()[2:]))
-    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    ap = OneLineParser(prog="descent-fmus", description=__doc__.splitlines()[0],
+                       formatter_class=argparse.RawDescriptionHelpFormatter,
+                       epilog="\n".join(__doc__.splitlines()[2:]))
+    sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                            parser_class=OneLineParser)
     _add_synthesize(sub)
     p = sub.add_parser("problems", help="list the registered synthesis problems and systems")
     add_common_options(p, fmus=False)
@@ -48,7 +49,8 @@ def build_parser() -> argparse.ArgumentParser:
         if system.add_commands is None:
             continue
         sp = sub.add_parser(system.cli_name, help=system.title)
-        actions = sp.add_subparsers(dest="action", required=True, metavar="ACTION")
+        actions = sp.add_subparsers(dest="action", required=True, metavar="ACTION",
+                                    parser_class=OneLineParser)
         system.add_commands(actions)
     return ap
 

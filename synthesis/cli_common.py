@@ -5,12 +5,13 @@ import it without importing the entry point (no import cycle).
 """
 from __future__ import annotations
 
+import argparse
 import json
 import math
 from pathlib import Path
 
-__all__ = ["CliError", "emit", "add_common_options", "add_parameter_options",
-           "parameter_overrides", "positive_int", "nonnegative_int", "finite_float",
+__all__ = ["CliError", "emit", "json_safe", "OneLineParser", "add_common_options", "add_parameter_options",
+           "parameter_overrides", "positive_int", "nonnegative_int", "int_at_least", "finite_float",
            "positive_float"]
 
 
@@ -19,19 +20,39 @@ class CliError(Exception):
 
 
 def emit(args, summary: dict, text: str) -> None:
-    """Print ``summary`` as JSON if ``--json`` was given, else the human-readable ``text``."""
+    """Print ``summary`` as JSON if ``--json`` was given, else the human-readable ``text``.
+
+    Non-finite numbers become ``null`` (JSON has no NaN), other objects their ``float`` or
+    ``str``.
+    """
     if getattr(args, "json", False):
-        print(json.dumps(summary, indent=2, default=_json_default, allow_nan=False))
+        print(json.dumps(json_safe(summary), indent=2, allow_nan=False))
     else:
         print(text)
 
 
-def _json_default(v):
+def json_safe(v):
+    """``v`` with NaN/inf as None, tuples as lists, numpy scalars as Python numbers."""
+    if isinstance(v, dict):
+        return {str(k): json_safe(x) for k, x in v.items()}
+    if isinstance(v, (list, tuple)):
+        return [json_safe(x) for x in v]
+    if isinstance(v, (bool, int, str)) or v is None:
+        return v
     try:
-        v = float(v)
+        f = float(v)
     except (TypeError, ValueError):
         return str(v)
-    return v if math.isfinite(v) else None
+    if hasattr(v, "dtype") and getattr(v.dtype, "kind", "") in "iub":
+        return int(v) if v.dtype.kind != "b" else bool(v)
+    return f if math.isfinite(f) else None
+
+
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose usage errors are one line (``prog: error: ...``), exit 2."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def add_common_options(p, fmus: bool = True, plot: str | None = None) -> None:
@@ -73,7 +94,6 @@ def parameter_overrides(args, names, dest_prefix: str = "") -> dict:
 
 
 def finite_float(text: str) -> float:
-    import argparse
     try:
         v = float(text)
     except ValueError:
@@ -84,30 +104,25 @@ def finite_float(text: str) -> float:
 
 
 def positive_float(text: str) -> float:
-    import argparse
     v = finite_float(text)
     if v <= 0:
         raise argparse.ArgumentTypeError(f"must be > 0, got {text!r}")
     return v
 
 
-def positive_int(text: str) -> int:
-    import argparse
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {v}")
-    return v
+def int_at_least(lo: int):
+    """An argparse type: an integer >= ``lo``."""
+    def convert(text: str) -> int:
+        try:
+            v = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+        if v < lo:
+            raise argparse.ArgumentTypeError(f"must be >= {lo}, got {v}")
+        return v
+    convert.__name__ = f"integer >= {lo}"
+    return convert
 
 
-def nonnegative_int(text: str) -> int:
-    import argparse
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"must be >= 0, got {v}")
-    return v
+positive_int = int_at_least(1)
+nonnegative_int = int_at_least(0)

@@ -131,6 +131,8 @@ class ClosedLoopResult:
         True if the stop condition ended the run before ``stop_time``.
     steps : int
         Communication steps taken.
+    t_final : float
+        Time of the last communication point [s] (the stop, or the stop time).
     """
 
     time: np.ndarray
@@ -138,6 +140,7 @@ class ClosedLoopResult:
     final: dict
     stopped: bool
     steps: int
+    t_final: float = 0.0
 
     def __getitem__(self, name):
         return self.outputs[name]
@@ -414,7 +417,7 @@ class ClosedLoop:
                 for i, n in enumerate(rec_names):
                     outputs[n] = arr[:, i]
         return ClosedLoopResult(time=np.array(times), outputs=outputs, final=final,
-                                stopped=stopped, steps=k)
+                                stopped=stopped, steps=k, t_final=min(k * h, t_end))
 
     def _final_outputs(self) -> dict:
         """Every plant output, by name (Reals as float, Integers and Booleans as int)."""

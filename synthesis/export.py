@@ -68,12 +68,27 @@ def model_closure(module: str) -> list[str]:
     return sorted(seen)
 
 
+def entry_script(module: str, cls: str) -> str:
+    """The FMU's entry module: imports the class and balances pythonfmu 0.7's reference count.
+
+    pythonfmu 0.7 re-executes the entry module's code in the module's namespace every time the
+    FMU is instantiated and then releases one reference to that namespace it never took
+    (``models.pythonfmu_compat``); the last line takes that reference on every execution.
+    """
+    return (f'"""pythonfmu entry point of the {cls} FMU (written by build_fmus.py)."""\n'
+            f"from descent_fmus.models.{module} import {cls}  # noqa: F401\n"
+            f"from descent_fmus.models.pythonfmu_compat import balance_namespace\n"
+            f"balance_namespace(globals())\n")
+
+
 def build_slave(fmu_class: str, dest_dir: Path) -> Path:
     """Build the pythonfmu FMU of ``"module:Class"`` (module relative to descent_fmus.models).
 
-    The FMU's entry script is a two-line module importing the class; its resources carry the
-    ``descent_fmus/models`` modules the class needs (a namespace package: in a Python that has
-    descent-fmus installed the two merge, they never shadow each other).
+    The FMU's entry script is a short module importing the class; its resources carry the
+    ``descent_fmus/models`` modules the class needs, without ``__init__.py`` files: namespace
+    packages, so that in one host process the portions of several of our FMUs merge (each FMU
+    finds its modules whichever was loaded first), and an installed descent-fmus keeps its own
+    regular packages.
     """
     from pythonfmu import FmuBuilder
 
@@ -82,18 +97,12 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
         tmp = Path(tmp)
         pkg = tmp / "descent_fmus"
         for m in model_closure(module):
-            parts = m.split(".")
-            target = pkg / "models" / Path(*parts).with_suffix(".py")
-            target.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy(MODELS / Path(*parts).with_suffix(".py"), target)
-            for k in range(len(parts)):          # the __init__.py of every package on the way
-                init = Path(*parts[:k], "__init__.py")
-                (pkg / "models" / init).write_text((MODELS / init).read_text())
+            rel = Path(*m.split(".")).with_suffix(".py")
+            (pkg / "models" / rel).parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy(MODELS / rel, pkg / "models" / rel)
         script = tmp / "entry" / f"{cls}.py"
         script.parent.mkdir()
-        script.write_text(f'"""pythonfmu entry point of the {cls} FMU (written by '
-                          f'build_fmus.py)."""\nfrom descent_fmus.models.{module} import '
-                          f'{cls}  # noqa: F401\n')
+        script.write_text(entry_script(module, cls))
         return Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
 
 

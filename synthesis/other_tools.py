@@ -41,8 +41,8 @@ def python_host_env(base: dict | None = None) -> dict:
                               f"--enable-shared, so native hosts cannot load pythonfmu FMUs")
     env["LD_PRELOAD"] = str(lib)
     env["PYTHONHOME"] = sys.base_prefix
-    paths = site.getsitepackages() + [str(Path(__file__).resolve().parent.parent)]
-    env["PYTHONPATH"] = os.pathsep.join(paths)
+    # the FMUs carry their own modules; the environment gives numpy & co.
+    env["PYTHONPATH"] = os.pathsep.join(site.getsitepackages())
     return env
 
 
@@ -52,6 +52,9 @@ def ecos_binary() -> Path:
         import ecospy
     except ImportError:
         raise EcosUnavailable("ecospy is not installed: pip install ecospy") from None
+    except OSError as exc:            # its library loads libtbb at import
+        raise EcosUnavailable(f"ecospy cannot load ({exc}); ecos needs Debian's libtbb12: "
+                              f"apt-get install libtbb12") from None
     exe = Path(ecospy.__file__).parent / "binaries" / ("ecos.exe" if os.name == "nt" else "ecos")
     if not exe.exists():
         raise EcosUnavailable(f"ecospy ships no ecos binary at {exe}")

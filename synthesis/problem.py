@@ -47,6 +47,7 @@ class Budget:
     lchr: int = 8             #: variations per individual (0 = parameters of the basic law only)
     epoch: int = 12           #: generations between changes of the basic solution
     seed: int = 1
+    elite_trim: int = 4       #: Pareto members whose variation lists are trimmed per epoch
 
     def __post_init__(self):
         if self.generations < 0:
@@ -55,7 +56,7 @@ class Budget:
 
     def ga_config(self) -> GAConfig:
         return GAConfig(population=self.population, crossovers=self.crossovers,
-                        lchr=self.lchr, epoch=self.epoch)
+                        lchr=self.lchr, epoch=self.epoch, elite_trim=self.elite_trim)
 
     def with_(self, **changes) -> "Budget":
         """A copy with the given fields changed (``None`` values are ignored)."""

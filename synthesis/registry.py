@@ -52,7 +52,7 @@ class ClosedLoopSpec:
         (called at build time; e.g. the computed optimal program).
     """
 
-    wiring: "Wiring"
+    wiring: object
     parameters: tuple = ()
     controller_defaults: Callable[[], Mapping] | None = None
 

@@ -2,7 +2,7 @@
 
 Sources: closed forms (linear systems: one Newton step is exact; a rotation angle with the
 first integral x1^2 + x2^2 = 1), an independent SciPy solve_ivp (DOP853) run of the computed
-control, and seed 003 (Voronov 2009) ch. 2 for the end-blended basis (u(t0) = u(tf) = 0).
+control, and Voronov (2009) ch. 2 for the end-blended basis (u(t0) = u(tf) = 0).
 """
 from __future__ import annotations
 
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, ConvergenceError, blend_window,
-                                     fd_jacobian, simulate, solve)
+from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, ConvergenceError,
+                                                          blend_window, simulate, solve)
 
 
 def double_integrator(x, u):
@@ -32,7 +32,7 @@ def di_jac(X, U):
 def test_blend_window_vanishes_at_both_ends_and_is_one_inside():
     t = np.linspace(0, 10, 101)
     w = blend_window(t, 0.0, 10.0, 0.2)
-    assert w[0] == 0.0 and w[-1] == 0.0                     # seed 003: du(t0) = du(tf) = 0
+    assert w[0] == 0.0 and w[-1] == 0.0                     # Voronov (2009): du(t0) = du(tf) = 0
     assert np.all(w[20:81] == 1.0)
     assert np.all(np.diff(w[:21]) >= 0) and np.all(w >= 0) and np.all(w <= 1)
 
@@ -126,4 +126,3 @@ def test_bad_problem_definitions_are_rejected():
     with pytest.raises(ValueError, match="tf > t0"):
         BoundaryProblem(rhs=rotor, x0=(1.0, 0.0), tf=-1.0, target_index=(0,),
                         target_value=(1,), n_u=1).validate()
-    _ = fd_jacobian  # exported fallback (used above through jac=None)

@@ -1,5 +1,6 @@
 """Every FMU survives errors: pythonfmu 0.7 over-releases its references when a callback raises
-(models/pythonfmu_compat.py); SlaveBase guards every callback of every FMU class.
+(models/pythonfmu_compat.py); SlaveBase guards every callback of every FMU class, and the
+entry module of every FMU balances the reference pythonfmu drops at each instantiation.
 
 Run in a subprocess: without the guard the script dies with SIGSEGV in the garbage collector
 after a rejected parameter followed by reset/free (reproduced with Reentry, MarsCapsule and
@@ -16,7 +17,8 @@ ROOT = Path(__file__).resolve().parent.parent
 SCRIPT = """
 import gc
 from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
-from descent_fmus.synthesis.scenarios import reentry, mars
+from descent_fmus.synthesis.systems.reentry import problems as reentry
+from descent_fmus.synthesis.systems.mars import wiring as mars
 from descent_fmus.synthesis.systems.lunar_landing.problems import FEEDBACK_WIRING, PROGRAM_WIRING
 d = {d!r} + "/"
 cases = [

@@ -25,7 +25,7 @@ def random_law(rng: np.random.Generator, L: int, nx: int = 2, nq: int = 2) -> Ne
 
 
 def test_basic_law_is_the_linear_law():
-    # seed 000 eq. (24)-(25): u = clip(q1 y1 + q2 y2, -0.2, 0.2)
+    # Diveev & Shmalko eqs. (24)-(25): u = clip(q1 y1 + q2 y2, -0.2, 0.2)
     law = NetworkOperator.basic_law()
     q1, q2 = PAPER_Q
     for y in [(0.01, -0.02), (0.3, 0.1), (-1.0, 0.0)]:
@@ -34,7 +34,7 @@ def test_basic_law_is_the_linear_law():
 
 
 def test_paper_law_matches_its_printed_formula():
-    # seed 000: z = z15 - y1, z15 = z14 + rho4(z9) + rho8(y1), ... (printed expression)
+    # the paper's printed law: z = z15 - y1, z15 = z14 + rho4(z9) + rho8(y1), ... (printed expression)
     law = NetworkOperator.paper_law()
     q1, q2 = PAPER_Q
     r4 = lambda z: math.copysign(math.sqrt(abs(z)), z) if z != 0 else 0.0  # noqa: E731

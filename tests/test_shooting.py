@@ -1,9 +1,9 @@
-"""The shooting solver (synthesis/shooting.py) on problems with known answers.
+"""The shooting solver (synthesis/methods/shooting.py) on problems with known answers.
 
-Sources: seed 002 (Mozzhorina 2017) Tables 1-2 for the lunar landing; the closed-form optimum of
-the landing (models.lunar_landing.optimal_landing, itself checked against an independent
-solve_ivp run in tests/test_lunar_landing.py); dymos examples/moon_landing (m_f ~ 0.3953);
-a linear-quadratic problem with an analytic solution for the interior-control path.
+Sources: Mozzhorina (2017) Tables 1-2 for the lunar landing; the closed-form optimum of the
+landing (models.lunar_landing.optimal_landing, itself checked against an independent solve_ivp
+run in tests/test_lunar_landing_model.py); dymos examples/moon_landing (m_f ~ 0.3953); a
+linear-quadratic problem with an analytic solution for the interior-control path.
 """
 from __future__ import annotations
 
@@ -13,21 +13,24 @@ import numpy as np
 import pytest
 
 from descent_fmus.models.lunar_landing import LanderParams, optimal_landing
-from descent_fmus.synthesis.systems.lunar_landing.problems import (MOON, PAPER_GUESSES, PAPER_INITIAL_NORMS,
-                                               PAPER_ITERATIONS,
-                                               PAPER_TABLE2, landing_problem, moon_guess,
-                                               moon_landing_problem, paper_guess)
-from descent_fmus.synthesis.methods.shooting import (PontryaginProblem, ShootingError, SingularJacobianError, integrate,
-                                newton, solve)
+from descent_fmus.synthesis.methods.shooting import (PontryaginProblem, ShootingError,
+                                                     SingularJacobianError, integrate, newton,
+                                                     solve)
+from descent_fmus.synthesis.systems.lunar_landing.problems import (MOON, PAPER_GUESSES,
+                                                                   PAPER_INITIAL_NORMS,
+                                                                   PAPER_ITERATIONS, PAPER_TABLE2,
+                                                                   landing_problem, moon_guess,
+                                                                   moon_landing_problem,
+                                                                   paper_guess)
 
 EXACT = optimal_landing()
 
 
 @pytest.mark.parametrize("guess", PAPER_GUESSES)
 def test_interpolate_method_reproduces_table2_to_printed_digits(guess):
-    # seed 002 Table 2 "shooting" row (umax = 14.57, RK4 with 1000 steps, switch interpolated
-    # and the control averaged in the step, Newton to max|residual| < 1e-5): every number the
-    # acceptance lists agrees to the digits printed.
+    # Mozzhorina (2017) Table 2 "shooting" row (umax = 14.57, RK4 with 1000 steps, switch
+    # interpolated and the control averaged in the step, Newton to max|residual| < 1e-5): every
+    # number the acceptance lists agrees to the digits printed.
     res = solve(landing_problem(), guess, method="interpolate")
     tr = res.trajectory
     assert len(tr.switches) == 1
@@ -48,9 +51,9 @@ def test_interpolate_method_reproduces_table2_to_printed_digits(guess):
 @pytest.mark.parametrize("guess,paper", list(zip(PAPER_GUESSES, PAPER_ITERATIONS)))
 @pytest.mark.parametrize("damped", [False, True])
 def test_newton_converges_from_table1_guesses_in_the_papers_iterations(guess, paper, damped):
-    # seed 002 Table 1: classical and modified Newton converge from all three guesses in 4, 6, 5
-    # iterations, to the final residual norm the paper reports (1e-8).  Ours, same scheme
-    # (RK4, 1000 steps, switch interpolated, forward-difference Jacobian): 4, 5, 5.
+    # Mozzhorina (2017) Table 1: classical and modified Newton converge from all three guesses
+    # in 4, 6, 5 iterations, to the final residual norm the paper reports (1e-8).  Ours, same
+    # scheme (RK4, 1000 steps, switch interpolated, forward-difference Jacobian): 4, 5, 5.
     res = solve(landing_problem(), guess, method="interpolate", damped=damped, tol=1e-8)
     assert res.success and res.iterations <= paper
     # the exact-switch (event) method to 1e-10: at most one iteration more than the paper
@@ -60,9 +63,10 @@ def test_newton_converges_from_table1_guesses_in_the_papers_iterations(guess, pa
 
 @pytest.mark.parametrize("guess,paper", list(zip(PAPER_GUESSES, PAPER_INITIAL_NORMS)))
 def test_initial_residual_norms_match_table1(guess, paper):
-    # seed 002 Table 1 last column (2-norm of the residuals at the guess): 2.170, 25.928, 187.70.
-    # Ours with the same scheme: 2.174, 25.92, 189.8 -- within 1.2 % (the paper's step for the
-    # guess is not stated), which pins the formulation (signs, H = 0 for psi2(0), scaling).
+    # Mozzhorina (2017) Table 1 last column (2-norm of the residuals at the guess): 2.170,
+    # 25.928, 187.70.  Ours with the same scheme: 2.174, 25.92, 189.8 -- within 1.2 % (the
+    # paper's step for the guess is not stated), which pins the formulation (signs, H = 0 for
+    # psi2(0), scaling).
     pb = landing_problem()
     tr = integrate(pb, guess, method="interpolate")
     r = np.linalg.norm(pb.residuals(tr.y_T, tr.u_T, guess))
@@ -82,7 +86,7 @@ def test_event_method_agrees_with_closed_form_to_1e_8(guess):
 
 
 def test_second_umax_15_74_agrees_with_closed_form():
-    # SPEC S3: "the solver must handle any umax (15.74 is a good second case)"
+    # the paper's printed umax = 15.74 as a second case (closed-form oracle)
     p = LanderParams(umax=15.74)
     ex = optimal_landing(p)
     res = solve(landing_problem(p), paper_guess(-0.3, 16.0, p), method="event")
@@ -92,7 +96,8 @@ def test_second_umax_15_74_agrees_with_closed_form():
 
 
 def test_paper_guess_formula_reproduces_table1_guess_ii():
-    # seed 002 eq. (8): psi1 = -0.10, T = 10, switch at T/2 gives psi3(0) = -0.7954 (Table 1 II)
+    # Mozzhorina (2017) eq. (8): psi1 = -0.10, T = 10, switch at T/2 gives psi3(0) = -0.7954
+    # (Table 1, guess II)
     assert paper_guess(-0.10, 10.0)[1] == pytest.approx(-0.7954, abs=5e-5)
 
 
@@ -117,8 +122,9 @@ def test_dymos_moon_landing_oracle(method):
 
 
 def test_guess_without_switch_raises_singular_jacobian_with_reason():
-    # seed 002: "if the guess keeps the sign of the switching function on the whole [0, T] the
-    # Jacobian degenerates and Newton loses convergence" -- a clear message, not garbage.
+    # Mozzhorina (2017): "if the guess keeps the sign of the switching function on the whole
+    # [0, T] the Jacobian degenerates and Newton loses convergence" -- a clear message, not
+    # garbage.
     with pytest.raises(SingularJacobianError, match="never switches"):
         solve(landing_problem(), (-0.1, -0.1, 15.0), method="event")
     with pytest.raises(SingularJacobianError, match="eq. \\(8\\)"):

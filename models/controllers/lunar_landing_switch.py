@@ -1,42 +1,67 @@
 """S3 optimal law as *feedback*: full thrust once the state reaches the switching curve.
 
-The fuel-optimal landing is a coast, then full thrust to h = V = 0 (seed 002).  Its feedback form:
-the engine is on when the lander is on or below the switching curve ``h = h_sw(V, m)``
-(:func:`models.lunar_landing.switch_height`: the height from which full thrust stops the lander
-exactly at the ground), off above it.  The law sees only the measured state, so it absorbs
-errors in the start state that ruin the open-loop program.
+The fuel-optimal landing is a coast, then full thrust to h = V = 0 (Mozzhorina 2017).  Its
+feedback form: the engine is on when the lander is on or below the switching curve
+``h = h_sw(V, m)`` (:func:`models.lunar_landing.switch_height`: the height from which full thrust
+stops the lander exactly at the ground), off above it.  The law sees only the measured state, so
+it absorbs errors in the start state that ruin the open-loop program.
 
 Sampled-data realisation (the control is held over a communication step ``dt``):
 
 * **one-step prediction** -- the control for ``[t_k, t_k + dt]`` is the smallest constant flow
   ``u in [0, umax]`` whose closed-form motion (:func:`models.lunar_landing.constant_flow_state`)
   ends the step *on or above* the curve: 0 while coasting keeps it above, ``umax`` once even full
-  thrust cannot, and in between on the switching step (the averaged control of seed 002's
+  thrust cannot, and in between on the switching step (the averaged control of Mozzhorina's
   Fedorenko scheme, located by the law itself).  Without it the switch would be late by up to
   one step and the lander would touch down at ~1 m/s with dt = 0.01 s.
 * **gravity estimate** (``estimate_g = 1``) -- while coasting ``dV/dt = gL`` exactly, so the
   difference quotient of two measured speeds over a coast step is the local gravity; the curve
-  uses it from the second sample on (``g_nominal`` before).  With a ±2 % error in gL the curve
+  uses it from the second sample on (``g_nominal`` before).  With a +-2 % error in gL the curve
   computed from a wrong gL is ~2 m off at 93 m, a ~2 m/s touchdown; the estimate removes it.
 
 References
 ----------
-Seed 002: T.Yu. Mozzhorina, 2017 (the optimal control structure, the averaged control on the
-switching step, and the closing remark that synthesis -- feedback -- needs another algorithm).
+T.Yu. Mozzhorina, 2017 (the optimal control structure, the averaged control on the switching
+step, and the closing remark that synthesis -- feedback -- needs another algorithm).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
-from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_positive
-from descent_fmus.models.lunar_landing import (InfeasibleLandingError, LanderParams, constant_flow_state,
-                                 solve_increasing, switch_height)
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.lunar_landing import (STEP, InfeasibleLandingError, LanderParams,
+                                               constant_flow_state, solve_increasing,
+                                               switch_height)
+from descent_fmus.models.params import ParameterError, Params, param
 
-__all__ = ["SwitchLaw", "LandingSwitch", "G_GATE"]
+__all__ = ["SwitchParams", "SwitchLaw", "LandingSwitch", "G_GATE"]
 
 #: A gravity estimate further than this fraction from ``g_nominal`` is rejected (the dispersion
-#: of interest is ±2 %; a wrong speed sample gives errors of order 100 %).
+#: of interest is +-2 %; a wrong speed sample gives errors of order 100 %).
 G_GATE = 0.25
+
+
+@dataclass(frozen=True)
+class SwitchParams(Params):
+    """Parameters of the feedback law (FMU :class:`LandingSwitch`); defaults from the plant's
+    default scenario (:class:`models.lunar_landing.LanderParams`)."""
+
+    umax: float = param(LanderParams.umax, "kg/s", "maximum fuel flow", positive=True)
+    beta: float = param(LanderParams.beta, "m/s", "exhaust velocity", positive=True)
+    g_nominal: float = param(LanderParams.gL, "m/s2", "gravity before an estimate exists",
+                             positive=True)
+    estimate_g: int = param(1, "1", "1: estimate gravity from coast steps, 0: use g_nominal "
+                            "throughout")
+    step: float = param(STEP, "s", "communication step assumed before the first doStep",
+                        positive=True)
+
+    def check(self) -> None:
+        if self.estimate_g not in (0, 1):
+            raise ParameterError(f"parameter estimate_g must be 0 or 1, got {self.estimate_g}")
+
+
+_DEFAULT = SwitchParams()
 
 
 class SwitchLaw:
@@ -56,7 +81,8 @@ class SwitchLaw:
         Communication step used for the one-step prediction until :meth:`stepped` reports one [s].
     """
 
-    def __init__(self, umax=14.57, beta=3050.0, g_nominal=1.62, estimate_g=True, dt=0.01):
+    def __init__(self, umax=_DEFAULT.umax, beta=_DEFAULT.beta, g_nominal=_DEFAULT.g_nominal,
+                 estimate_g=True, dt=_DEFAULT.step):
         self.umax, self.beta, self.g_nominal = umax, beta, g_nominal
         self.estimate_g = bool(estimate_g)
         self.dt = dt
@@ -117,25 +143,22 @@ class LandingSwitch(SlaveBase):
     current V, m) and ``g_est`` (the gravity the law uses).
     """
 
+    params_class = SwitchParams
+
     description = ("S3 optimal landing law as feedback: full thrust once the state reaches the "
-                   "switching curve h = h_sw(V, m) (closed-form powered arc); seed 002")
+                   "switching curve h = h_sw(V, m) (closed-form powered arc); Mozzhorina 2017")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        p = LanderParams()
-        self.parameter("umax", p.umax, "maximum fuel flow [kg/s]")
-        self.parameter("beta", p.beta, "exhaust velocity [m/s]")
-        self.parameter("g_nominal", p.gL, "gravity before an estimate exists [m/s2]")
-        self.int_parameter("estimate_g", 1, "1: estimate gravity from coast steps, 0: use "
-                           "g_nominal throughout [1]")
-        self.parameter("step", 0.01, "communication step assumed before the first doStep [s]")
+        self.parameters()
         self._dirty = True
         self._measured = False
         self._u = 0.0
-        for name, desc in (("h", "measured altitude [m]"), ("V", "measured downward speed [m/s]"),
-                           ("m", "measured mass [kg]")):
-            self.input(name, {"h": p.h0, "V": p.V0, "m": p.m0}[name], desc,
-                       setter=lambda v, n=name: self._set(n, v))
+        p = LanderParams()
+        for name, desc, start in (("h", "measured altitude [m]", p.h0),
+                                  ("V", "measured downward speed [m/s]", p.V0),
+                                  ("m", "measured mass [kg]", p.m0)):
+            self.input(name, start, desc, setter=lambda v, n=name: self._set(n, v))
         self.output("u", "fuel flow for the coming communication step [kg/s]",
                     getter=self._output)
         self.output("h_sw", "switching-curve height at the current V and m [m]",
@@ -148,12 +171,6 @@ class LandingSwitch(SlaveBase):
         setattr(self, name, value)
         self._dirty = True
         self._measured = True
-
-    def check_parameters(self) -> None:
-        for name in ("umax", "beta", "g_nominal", "step"):
-            require_positive(name, getattr(self, name))
-        if self.estimate_g not in (0, 1):
-            raise ParameterError(f"parameter estimate_g must be 0 or 1, got {self.estimate_g}")
 
     def prepare(self) -> None:
         self._law = SwitchLaw(self.umax, self.beta, self.g_nominal, self.estimate_g, self.step)

@@ -1,4 +1,4 @@
-"""S2 -- the Bellman/averaging angle-of-attack law of Lyubimov & Kurkina (seed 001, eq. 17).
+"""S2 -- the Bellman/averaging angle-of-attack law of Lyubimov & Kurkina (eq. 17).
 
     u = sat_{u_max}( A alpha cos(theta + theta1) / (2 c omega_a) )
 
@@ -6,7 +6,7 @@
 
     b - A omega omega_dot / omega_a^2 - A^2 / (8 c omega_a^2) = 0
 
-* ``formula = 0`` (default) -- the consistent root (SPEC S2)::
+* ``formula = 0`` (default) -- the consistent root::
 
       A = 4 c omega_a^2 ( -omega omega_dot / omega_a^2
                           + sqrt(omega^2 omega_dot^2 / omega_a^4 + b / (2 c omega_a^2)) )
@@ -25,27 +25,46 @@ FMU and the in-process code (tests, benchmarks) call them.
 
 References
 ----------
-Seed 001: V.V. Lyubimov, E.V. Kurkina, "Optimal control of the angle of attack of an asymmetric
+V.V. Lyubimov, E.V. Kurkina, "Optimal control of the angle of attack of an asymmetric
 spacecraft in the Mars atmosphere", eqs. (2), (12)-(17).
 """
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
-from descent_fmus.models.fmu_support import ParameterError, SlaveBase, require_finite, require_positive
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.params import ParameterError, Params, param
 
-__all__ = ["CONSISTENT", "PAPER", "consistent_gain", "paper_gain", "gain", "control",
-           "bellman_residual", "MarsBellmanController", "B", "C", "U_MAX", "THETA1"]
+__all__ = ["CONSISTENT", "PAPER", "MarsBellmanParams", "consistent_gain", "paper_gain", "gain",
+           "control", "feedback", "bellman_residual", "MarsBellmanController"]
 
 #: ``formula`` values.
 CONSISTENT, PAPER = 0, 1
-#: Default weights of the criterion eps * integral(b alpha^2 + c u^2) dt ([choice]).
-B = 1.0
-C = 100.0
-#: Default saturation of |u| ([choice]; with eps = 1 it is an angular acceleration [rad/s^2]).
-U_MAX = 0.01
-#: Default phase of the asymmetry [rad] (must equal the plant's theta1).
-THETA1 = 0.3
+
+
+@dataclass(frozen=True)
+class MarsBellmanParams(Params):
+    """Parameters of the law (17); defaults are our [choice]s (models/README.md).
+
+    The weights are those of the criterion eps * integral(b alpha^2 + c u^2) dt; with eps = 1
+    ``u_max`` is an angular acceleration [rad/s^2].
+    """
+
+    b: float = param(1.0, "1", "weight of alpha^2 in the criterion (> 0)", positive=True)
+    c: float = param(100.0, "1", "weight of u^2 in the criterion (> 0)", positive=True)
+    # the plant's default theta1 (MarsParams); this module does not import the plant
+    theta1: float = param(0.3, "rad", "phase of the asymmetry (= the plant's theta1)")
+    u_max: float = param(0.01, "1", "saturation |u| <= u_max (0: no control)")
+    formula: int = param(CONSISTENT, "1", "gain A: 0 consistent root of eq. (14), 1 the "
+                         "paper's printed root (15) with its guards")
+
+    def check(self) -> None:
+        if self.u_max < 0.0:
+            raise ParameterError(f"parameter u_max must be finite and >= 0, got {self.u_max!r}")
+        if self.formula not in (CONSISTENT, PAPER):
+            raise ParameterError(f"parameter formula must be 0 (consistent root) or 1 (paper's "
+                                 f"root), got {self.formula!r}")
 
 
 def consistent_gain(omega, omega_dot, omega_a, b, c):
@@ -113,6 +132,21 @@ def control(alpha, theta, omega, omega_dot, omega_a, b, c, theta1, u_max, formul
     return (u_max if u > u_max else (-u_max if u < -u_max else u)), A
 
 
+def feedback(law: MarsBellmanParams = MarsBellmanParams(), alpha_index: int = 0):
+    """The law as ``control(outputs) -> u`` for :func:`descent_fmus.models.mars.simulate`.
+
+    The plant's output tuple holds ``alpha, theta`` at ``alpha_index, alpha_index + 1`` (0: the
+    averaged plant's angles, or the rigid body's instantaneous ones; the index of ``alpha_m1``
+    in ``OUTPUTS6``: the rigid body's omega_1 mode) and ``omega, omega_dot, omega_a`` at 2-4.
+    """
+    b, c, theta1, u_max, formula = law.b, law.c, law.theta1, law.u_max, law.formula
+    i = alpha_index
+
+    def u(y):
+        return control(y[i], y[i + 1], y[2], y[3], y[4], b, c, theta1, u_max, formula)[0]
+    return u
+
+
 class MarsBellmanController(SlaveBase):
     """Controller FMU of the law (17); outputs are computed from the inputs when read.
 
@@ -122,8 +156,10 @@ class MarsBellmanController(SlaveBase):
     right after setting the inputs gets u(y(t_k)).
     """
 
+    params_class = MarsBellmanParams
+
     description = ("S2 Bellman/averaging angle-of-attack law u = A alpha cos(theta+theta1)/"
-                   "(2 c omega_a); seed 001, Lyubimov & Kurkina")
+                   "(2 c omega_a); Lyubimov & Kurkina")
 
     INPUTS = [("alpha", 0.0, "spatial angle of attack [rad]"),
               ("theta", 0.0, "fast phase [rad]"),
@@ -138,12 +174,7 @@ class MarsBellmanController(SlaveBase):
         for name, start, desc in self.INPUTS:
             self.input(name, start, desc,
                        setter=lambda v, n=name: (setattr(self, n, v), touch()))
-        self.parameter("b", B, "weight of alpha^2 in the criterion (> 0) [1]")
-        self.parameter("c", C, "weight of u^2 in the criterion (> 0) [1]")
-        self.parameter("theta1", THETA1, "phase of the asymmetry (= the plant's theta1) [rad]")
-        self.parameter("u_max", U_MAX, "saturation |u| <= u_max (0: no control) [1]")
-        self.int_parameter("formula", CONSISTENT, "gain A: 0 consistent root of eq. (14), 1 the "
-                           "paper's printed root (15) with its guards [1]")
+        self.parameters()
         self.output("u", "control m^A [1]", getter=lambda: self._outputs()[0])
         self.output("A", "Bellman coefficient A of v = A alpha^2 [1]",
                     getter=lambda: self._outputs()[1])
@@ -151,19 +182,6 @@ class MarsBellmanController(SlaveBase):
 
     def _touch(self):
         self._cache = None
-
-    def check_parameters(self) -> None:
-        for name in ("b", "c"):
-            if not getattr(self, name) > 0.0:
-                raise ParameterError(f"parameter {name} (weight of the criterion) must be > 0, "
-                                     f"got {getattr(self, name)!r}")
-            require_positive(name, getattr(self, name))
-        require_finite("theta1", self.theta1)
-        if not (math.isfinite(self.u_max) and self.u_max >= 0.0):
-            raise ParameterError(f"parameter u_max must be finite and >= 0, got {self.u_max!r}")
-        if self.formula not in (CONSISTENT, PAPER):
-            raise ParameterError(f"parameter formula must be 0 (consistent root) or 1 (paper's "
-                                 f"root), got {self.formula!r}")
 
     def prepare(self) -> None:
         self._cache = None

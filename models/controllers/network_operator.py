@@ -5,7 +5,7 @@ the diagonal ``psi[i][i]`` is the number of the *binary* operation at node ``i``
 ``psi[i][j]`` (``i < j``) the number of the *unary* operation on the arc ``i -> j``; 0 = nothing.
 Source nodes ``1..nx`` hold the inputs, nodes ``nx+1..nx+nq`` the parameters q.
 
-Evaluation (SPEC S1, "The network operator"): a non-source node starts at the unit element of its
+Evaluation (Diveev & Sofronova 2007): a non-source node starts at the unit element of its
 binary operation; for ``i = 1..L-1`` and every ``j > i`` with ``psi[i][j] != 0`` and
 ``psi[j][j] != 0``: ``z_j <- chi_{psi_jj}(z_j, rho_{psi_ij}(z_i))``.  The outputs are the values of
 the output nodes (the last node by default).
@@ -18,7 +18,7 @@ This module is the one implementation of the operations and of the evaluation; i
 
 References
 ----------
-Seed 000 (Diveev & Shmalko), section "Синтез"; A.I. Diveev, E.A. Sofronova, "The network operator
+A.I. Diveev, E.Yu. Shmalko (reentry paper), section "Синтез"; A.I. Diveev, E.A. Sofronova, "The network operator
 method in control problems", Vestnik RUDN, 2007, no. 4.
 """
 from __future__ import annotations
@@ -35,11 +35,11 @@ __all__ = ["BIG", "UNARY", "BINARY", "UNIT", "UNARY_NAMES", "BINARY_NAMES", "com
 
 #: The authors' "infinity": every node value is clamped to [-BIG, BIG].
 BIG = 1e8
-_EPS5 = 1e-7     # epsilon of rho5 (seed 000)
+_EPS5 = 1e-7     # epsilon of rho5 (Diveev & Shmalko)
 _EPS = 1e-8      # epsilon of the wider operation set
 _LN_BIG = math.log(BIG)
 
-# Capacity of the generic controller FMU (fixed at build time; SPEC asks for the paper's 16-node
+# Capacity of the generic controller FMU (fixed at build time; room for the paper's 16-node
 # law plus synthesis headroom: L = 16-32 nodes, 2-9 parameters).
 L_MAX = 32
 NX_MAX = 8
@@ -224,7 +224,7 @@ def evaluate(program, sources):
     return [z[o] for o in outs]
 
 
-#: The paper's basic law u = q1 y1 + q2 y2 (seed 000 eq. 25) on 7 nodes:
+#: The paper's basic law u = q1 y1 + q2 y2 (Diveev & Shmalko, eq. 25) on 7 nodes:
 #: 1 y1, 2 y2, 3 q1, 4 q2, 5 = q1*y1, 6 = q2*y2, 7 = 5 + 6.
 BASIC_LAW_PSI = [
     [0, 0, 0, 0, 1, 0, 0],
@@ -235,7 +235,7 @@ BASIC_LAW_PSI = [
     [0, 0, 0, 0, 0, 2, 1],
     [0, 0, 0, 0, 0, 0, 1],
 ]
-#: The paper's parameters of its chosen law (seed 000).
+#: The paper's parameters of its chosen law (Diveev & Shmalko).
 PAPER_Q = (2.259375, 1.953125)
 
 
@@ -258,7 +258,7 @@ class NetworkOperatorController(SlaveBase):
     feed-through), so a master reading ``u`` right after setting ``x`` gets ``phi(x)``.
     """
 
-    description = "Network-operator control law (seed 000, Diveev & Sofronova): generic, " \
+    description = "Network-operator control law (Diveev & Sofronova): generic, " \
                   "parameterised by its matrix psi and parameters q"
 
     def __init__(self, **kwargs):

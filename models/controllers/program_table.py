@@ -14,8 +14,8 @@ the usual zero-order hold.
 
 References
 ----------
-Seed 003: S.A. Voronov, PhD thesis (2009), ch. 2 -- controls sought as piecewise-linear functions
-of time ("кусочно-линейные управления").
+S.A. Voronov, PhD thesis (2009), ch. 2 -- controls sought as piecewise-linear functions of time
+("кусочно-линейные управления").
 """
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ class ProgramController(SlaveBase):
     """Plays a piecewise-linear program u(t) (six channels) with its slopes (first-order hold)."""
 
     description = ("piecewise-linear program u(t) on a uniform grid (values and slopes); "
-                   "S4 gimbal-rate programs of the direct method, seed 003")
+                   "S4 gimbal-rate programs of the direct method, Voronov 2009")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)

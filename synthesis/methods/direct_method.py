@@ -7,7 +7,7 @@ Problem: find a piecewise-linear control ``u(t)`` on a uniform grid such that th
 hits ``x_i(tf) = xf_i`` for the chosen components ``i`` (to a tolerance ``tol`` on each of them),
 with ``u(t0)`` and ``u(tf)`` kept at their initial-guess values (the thesis' u(t0) = u(tf) = 0).
 
-Iteration ``k`` (seed 003, ch. 1-2):
+Iteration ``k`` (Voronov 2009, ch. 1-2):
 
 1. integrate the nonlinear system with ``u^k`` (RK4, sub-steps aligned with the control grid;
    the control is linear over every sub-step) -> ``x^k(t)`` and the miss ``dx_f = xf - x^k(tf)``;
@@ -24,7 +24,7 @@ Iteration ``k`` (seed 003, ch. 1-2):
 6. ``u^{k+1} = u^k + du`` (halved if the miss would grow; a loop that cannot reduce the miss
    stops with :class:`ConvergenceError`).
 
-``S`` is the *adaptive selection of independent end conditions* (seed 003, ch. 2): first
+``S`` is the *adaptive selection of independent end conditions* (Voronov 2009, ch. 2): first
 integrals (quaternion norm, angular momentum) make the end conditions linearly dependent, so at
 every iteration the numerical rank ``r`` of their sensitivity rows is found by SVD and, among the
 subsets of ``r`` rows that are well conditioned, the one that leaves out the components with the
@@ -33,7 +33,7 @@ worst accuracy).  The end conditions left out are met through the first integral
 
 References
 ----------
-Seed 003: S.A. Voronov, PhD thesis (2009), ch. 1 (basic algorithm, Gram system), ch. 2 (basis
+S.A. Voronov, PhD thesis (2009), ch. 1 (basic algorithm, Gram system), ch. 2 (basis
 modification at the ends, reduced algorithm, adaptive choice of independent variables).
 """
 from __future__ import annotations

@@ -11,7 +11,7 @@ Ask/tell interface (as pymoo's algorithms): :meth:`VariationalGA.ask` returns de
 The random generator is injected; same seed => same result.  :meth:`state` / :meth:`from_state`
 give a JSON-serialisable checkpoint (population, basis, generator state).
 
-Departures from the lab algorithm (SPEC S1, the authors' Free-Pascal programs), each for a reason:
+Departures from the lab algorithm (the authors' Free-Pascal programs), each for a reason:
 
 * the children of a generation are produced first and evaluated as one batch (so a worker pool or
   a Dask cluster can evaluate them in parallel), then inserted one by one exactly as in the lab
@@ -28,7 +28,7 @@ Departures from the lab algorithm (SPEC S1, the authors' Free-Pascal programs), 
 
 References
 ----------
-Seed 000 (Diveev & Shmalko), section "Синтез"; A.I. Diveev, E.A. Sofronova, "The network operator
+A.I. Diveev, E.Yu. Shmalko (reentry paper), section "Синтез"; A.I. Diveev, E.A. Sofronova, "The network operator
 method in control problems", Vestnik RUDN, 2007.
 """
 from __future__ import annotations
@@ -88,7 +88,7 @@ class GrayCodec:
 class StructureCodec:
     """Small variations (kind, i, j, op) of an upper-triangular matrix (0-based node numbers).
 
-    kinds (SPEC S1): 0 replace the unary operation on an existing arc i->j; 1 replace the binary
+    kinds: 0 replace the unary operation on an existing arc i->j; 1 replace the binary
     operation at non-source node j; 2 add an arc i->j with unary operation ``op`` (target a
     non-source node that has a binary operation); 3 remove the arc i->j if node j keeps another
     incoming arc and node i another outgoing arc.  A variation with ``j < n_sources`` (such as

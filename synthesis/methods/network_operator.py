@@ -6,7 +6,7 @@ loaded into the FMU give identical outputs.
 
 References
 ----------
-Seed 000 (Diveev & Shmalko); A.I. Diveev, E.A. Sofronova, Vestnik RUDN 2007 no. 4.
+A.I. Diveev, E.Yu. Shmalko (reentry paper); A.I. Diveev, E.A. Sofronova, Vestnik RUDN 2007 no. 4.
 """
 from __future__ import annotations
 
@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.models.controllers.network_operator import (BASIC_LAW_PSI, BINARY, BINARY_NAMES, L_MAX,
-                                                 NQ_MAX, NU_MAX, NX_MAX, PAPER_Q, UNARY,
-                                                 UNARY_NAMES, MatrixError, compile_law, evaluate)
+from descent_fmus.models.controllers.network_operator import (BASIC_LAW_PSI, BINARY_NAMES, L_MAX,
+                                                              NQ_MAX, NU_MAX, NX_MAX, PAPER_Q,
+                                                              UNARY_NAMES, MatrixError,
+                                                              compile_law, evaluate)
 
 __all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError", "PAPER_LAW_PSI"]
 
@@ -33,7 +34,7 @@ class LawFileError(ValueError):
 
 
 def _paper_law_psi():
-    """The paper's printed 16-node law (seed 000), rebuilt from its printed formula.
+    """The paper's printed 16-node law (Diveev & Shmalko), rebuilt from its printed formula.
 
     The printed matrix is OCR-damaged (a row with 15 entries, diagonal entries lost), so it is
     rebuilt from the printed expression, which is complete:
@@ -72,7 +73,7 @@ class NetworkOperator:
     outputs : sequence of int, optional
         1-based output nodes (default: the last node).
     bounds : sequence of (float, float), optional
-        Output bounds per output (default (-0.2, 0.2), SPEC S1).
+        Output bounds per output (default (-0.2, 0.2), the reentry control bounds).
     input_names : sequence of str, optional
         Names of the inputs for :meth:`formula` (default ``x1, x2, ...``).
     input_scale, input_offset : sequence of float, optional
@@ -147,12 +148,15 @@ class NetworkOperator:
 
     def __setstate__(self, d):
         self.__dict__.update(d)
-        self._compile()
+        try:
+            self._compile()
+        except MatrixError:   # a law edited after validation: the FMU will reject it, per law
+            self._program = None
 
     # -- constructors ---------------------------------------------------------------------
     @classmethod
     def basic_law(cls, q=PAPER_Q, size: int = 16) -> "NetworkOperator":
-        """The paper's basic law ``u = clip(q1 y1 + q2 y2, -0.2, 0.2)`` (seed 000 eq. 24-25).
+        """The paper's basic law ``u = clip(q1 y1 + q2 y2, -0.2, 0.2)`` (Diveev & Shmalko, eqs. 24-25).
 
         ``size`` pads the matrix with unused nodes (room for the GA's variations); the output is
         node 7.
@@ -163,8 +167,62 @@ class NetworkOperator:
         return cls(psi, nx=2, q=list(q), outputs=[n0], input_names=["y1", "y2"])
 
     @classmethod
+    def linear(cls, gains, bias=None, bounds=None, size: int | None = None,
+               input_names=None, input_scale=None, input_offset=None) -> "NetworkOperator":
+        """The linear feedback ``u_k = clip(sum_i gains[k][i] x_i + bias[k])`` as a matrix.
+
+        Nodes: the inputs, then the parameters (the gains row by row, then the biases), then
+        for each output the products ``q x_i`` (binary *), their sum with the bias (binary +)
+        and a chain of identity nodes (+) to the output node: spare nodes on which the GA's
+        variations build structure.  ``size`` (default: 4 spare nodes per output) is the total
+        node count; the spare nodes are shared out evenly.
+        """
+        gains = [[float(g) for g in row] for row in gains]
+        nu = len(gains)
+        nx = len(gains[0]) if nu else 0
+        if nu < 1 or nx < 1 or any(len(r) != nx for r in gains):
+            raise MatrixError(f"gains must be a non-empty matrix (one row of input gains per "
+                              f"output), got {gains}")
+        bias = [0.0] * nu if bias is None else [float(b) for b in bias]
+        if len(bias) != nu:
+            raise MatrixError(f"{nu} outputs but {len(bias)} biases")
+        q = [g for row in gains for g in row] + bias
+        ns = nx + len(q)
+        core = ns + nu * (nx + 1)
+        size = core + 4 * nu if size is None else int(size)
+        spare = (size - core) // nu
+        if spare < 0:
+            raise MatrixError(f"a linear law with {nx} inputs and {nu} outputs needs at least "
+                              f"{core} nodes, got size = {size}")
+        psi = np.zeros((size, size), dtype=int)
+        node, outputs = ns, []
+        for k in range(nu):
+            prods = []
+            for i in range(nx):
+                psi[node, node] = 2                          # product q_ki * x_i
+                psi[i, node] = 1
+                psi[nx + k * nx + i, node] = 1
+                prods.append(node)
+                node += 1
+            psi[node, node] = 1                              # sum of the products + bias
+            for j in prods:
+                psi[j, node] = 1
+            psi[nx + nu * nx + k, node] = 1
+            last = node
+            node += 1
+            # the last output takes what the even share leaves over
+            for _ in range(spare if k < nu - 1 else size - node):
+                psi[node, node] = 1
+                psi[last, node] = 1
+                last = node
+                node += 1
+            outputs.append(last + 1)
+        return cls(psi, nx=nx, q=q, outputs=outputs, bounds=bounds, input_names=input_names,
+                   input_scale=input_scale, input_offset=input_offset)
+
+    @classmethod
     def paper_law(cls) -> "NetworkOperator":
-        """The paper's found 16-node law with q1 = 2.259375, q2 = 1.953125 (seed 000)."""
+        """The paper's found 16-node law with q1 = 2.259375, q2 = 1.953125 (Diveev & Shmalko)."""
         return cls(np.array(PAPER_LAW_PSI), nx=2, q=list(PAPER_Q), input_names=["y1", "y2"])
 
     # -- evaluation -----------------------------------------------------------------------
@@ -266,7 +324,10 @@ class NetworkOperator:
         L, ns = self.size, self.nx + len(self.q)
         expr = [None] * L
         for k in range(self.nx):
-            expr[k] = self.input_names[k]
+            name, scale, off = self.input_names[k], self.input_scale[k], self.input_offset[k]
+            if off != 0.0:
+                name = f"({name}-{off:.{digits}g})"
+            expr[k] = name if scale == 1.0 else f"{scale:.{digits}g}*{name}"
         for k in range(len(self.q)):
             expr[self.nx + k] = f"{self.q[k]:.{digits}g}"
         terms = [[] for _ in range(L)]

@@ -11,7 +11,7 @@ A problem (:class:`PontryaginProblem`) is given as plain functions:
   interior (smooth) controls.
 
 The system is integrated in normalised time ``tau = t / T`` on ``[0, 1]`` (the right-hand side
-multiplied by ``T``), which turns the free final time into an ordinary unknown (seed 002).
+multiplied by ``T``), which turns the free final time into an ordinary unknown (Mozzhorina 2017).
 
 Switch handling -- what keeps Newton convergent when the control is discontinuous:
 
@@ -33,7 +33,7 @@ sign, so the end state does not depend on the adjoints (the paper's warning) -- 
 
 References
 ----------
-Seed 002: T.Yu. Mozzhorina, "Numerical solution to problems of optimal control with switching by
+T.Yu. Mozzhorina, "Numerical solution to problems of optimal control with switching by
 means of the shooting method", 2017 (method, switch interpolation and averaging, Newton);
 R.P. Fedorenko, "Approximate solution of optimal control problems", Nauka, 1978.
 """
@@ -156,7 +156,7 @@ def _integrate_interpolate(pb: PontryaginProblem, y0, T, n_steps, record):
     """Classical RK4 in tau with the switch interpolated and the control averaged (Fedorenko).
 
     Works on tuples of floats (models.integrators.rk4_step): for a handful of components this
-    is several times faster than NumPy arrays (DESIGN.md).
+    is several times faster than NumPy arrays (measured: models/integrators.py).
     """
     from descent_fmus.models.integrators import rk4_step
 

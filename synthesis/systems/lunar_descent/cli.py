@@ -1,4 +1,4 @@
-"""``descent-fmus lunar-descent-report``: S5 laws on the initial-state set and on a seeded
+"""``descent-fmus lunar-descent report``: S5 laws on the initial-state set and on a seeded
 dispersion (thrust +-3 %, specific impulse +-1 %), through the FMUs; optional front comparison
 of two synthesis runs."""
 from __future__ import annotations
@@ -6,32 +6,38 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from descent_fmus.synthesis.cli_common import CliError, emit
+from descent_fmus.synthesis.cli_common import CliError, add_common_options, emit, fmu_folder
 
-FMU_DIR = Path(__file__).resolve().parents[2] / "fmus"
+__all__ = ["add_commands", "run_report", "HV_REF"]
+
 #: Reference point of the hypervolume comparison [m, m/s]: every state in the box with
 #: |h - hf| <= 600 m and |V - Vf| <= 12 m/s on average (5 initial states).
 HV_REF = (3000.0, 60.0)
 
 
-def register(sub) -> None:
-    p = sub.add_parser("lunar-descent-report", help="S5: a synthesised law vs a baseline on the "
-                       "initial-state set and on a seeded dispersion (h, V misses, fuel)")
-    p.add_argument("--law", type=Path, required=True, help="law JSON (laws/<k>/law.json of a "
-                   "synthesis run) or the run's pareto.json (row --row)")
-    p.add_argument("--row", type=int, default=0, help="row k of a pareto.json given as --law "
-                   "or --baseline (default 0, the lowest J1)")
-    p.add_argument("--baseline", type=Path, help="baseline law JSON (default: the problem's "
-                   "basic law, a linear feedback law)")
-    p.add_argument("--front", type=Path, help="pareto.json of the synthesis run")
-    p.add_argument("--baseline-front", type=Path, help="pareto.json of the baseline run "
-                   "(e.g. synthesize lunar-descent --lchr 0): hypervolume comparison")
-    p.add_argument("--samples", type=int, default=100, help="dispersion samples")
-    p.add_argument("--seed", type=int, default=7)
-    p.add_argument("--fmus", type=Path, default=FMU_DIR)
-    p.add_argument("--plot", type=Path, help="PNG: h(V) on the initial set, final (V, h) of "
-                   "the dispersion")
-    p.add_argument("--json", action="store_true")
+def add_commands(sub) -> None:
+    p = sub.add_parser("report", help="a synthesised law vs a baseline on the initial-state set "
+                       "and on a seeded dispersion (h, V misses, fuel), through the FMUs")
+    p.add_argument("--law", type=Path, required=True, metavar="FILE.json",
+                   help="law JSON (laws/<k>/law.json of a synthesis run) or the run's "
+                        "pareto.json (row --row)")
+    p.add_argument("--row", type=int, default=0, metavar="K",
+                   help="row k of a pareto.json given as --law or --baseline (default 0, the "
+                        "lowest J1)")
+    p.add_argument("--baseline", type=Path, metavar="FILE.json",
+                   help="baseline law JSON or pareto.json (default: the problem's basic law, a "
+                        "linear feedback law)")
+    p.add_argument("--front", type=Path, metavar="PARETO.json",
+                   help="pareto.json of the synthesis run")
+    p.add_argument("--baseline-front", type=Path, metavar="PARETO.json",
+                   help="pareto.json of the baseline run (e.g. synthesize lunar-descent "
+                        "--lchr 0): hypervolume comparison")
+    p.add_argument("--samples", type=int, default=100, metavar="N",
+                   help="dispersion samples (default 100; 0: none)")
+    p.add_argument("--seed", type=int, default=7, metavar="S",
+                   help="seed of the dispersion samples (default 7)")
+    add_common_options(p, plot="write a PNG of h(V) on the initial set and of the final "
+                               "|h - hf| of the dispersion")
     p.set_defaults(func=run_report)
 
 
@@ -58,28 +64,25 @@ def _load_front(path):
 
 
 def run_report(args) -> int:
-    from descent_fmus.synthesis.cosim import FMUNotFoundError
-    from descent_fmus.synthesis.systems.lunar_descent.study import front_comparison, study
-    from descent_fmus.synthesis.evaluator import get_problem
+    from descent_fmus.synthesis.systems.lunar_descent.problems import synthesis_basic_law
+    from descent_fmus.synthesis.systems.lunar_descent.study import (front_comparison,
+                                                                     plot_study, study)
 
     if args.samples < 0:
-        raise CliError("--samples must be >= 0")
+        raise CliError(f"--samples must be >= 0, got {args.samples}")
     laws = {"synthesised": _load_law(args.law, args.row),
             "baseline": _load_law(args.baseline, args.row) if args.baseline
-            else get_problem("lunar-descent").basic_law()}
+            else synthesis_basic_law()}
     for name, law in laws.items():
         if len(law.outputs) != 2 or law.nx != 4:
             raise CliError(f"the {name} law has {law.nx} inputs and {len(law.outputs)} outputs; "
                            f"a lunar-descent law reads 4 inputs and drives 2 outputs (u1, u2)")
-    try:
-        res = study(laws, args.fmus, args.samples, args.seed, record=bool(args.plot))
-    except FMUNotFoundError as exc:
-        raise CliError(str(exc)) from None
+    res = study(laws, fmu_folder(args), args.samples, args.seed, record=bool(args.plot))
     if args.front and args.baseline_front:
         res["front"] = front_comparison(_load_front(args.front), _load_front(args.baseline_front),
                                         HV_REF)
     if args.plot:
-        _plot(res, args.plot)
+        plot_study(res, args.plot)
         res["plot"] = str(args.plot)
     lines = [f"{'law':12s} {'J1 [m]':>9s} {'J2 [m/s]':>9s} {'in box':>7s} {'|dh| max':>9s} "
              f"{'|dV| max':>9s} {'h_min':>7s} {'fuel max':>9s}   set"]
@@ -104,50 +107,7 @@ def run_report(args) -> int:
     for r in res["laws"].values():
         for row in r["rows"]:
             row.pop("trace", None)
-        if not args.json:
-            continue
-        r.pop("dispersion_points", None)
+        if args.json:
+            r.pop("dispersion_points", None)
     emit(args, res, "\n".join(lines))
     return 0
-
-
-def _plot(res, path) -> None:
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.patches import Rectangle
-    fig, ax = plt.subplots(1, 2, figsize=(12, 4.8))
-    for c, (name, r) in zip(("C0", "C3"), res["laws"].items()):
-        for k, row in enumerate(r["rows"]):
-            tr = row["trace"]
-            ax[0].plot(tr["V"], [h / 1e3 for h in tr["h"]], color=c, lw=1,
-                       label=name if k == 0 else None)
-    ax[0].set(xlabel="V [m/s]", ylabel="h [km]", xscale="log",
-              title="initial-state set (5 states): h over V")
-    ax[0].add_patch(Rectangle((40, 1.5), 20, 1.0, fill=False, ec="k", lw=1.2))
-    ax[0].legend()
-    for c, m, (name, r) in zip(("C0", "C3"), ("o", "s"), res["laws"].items()):
-        pts = r["dispersion_points"]
-        if not pts:
-            continue
-        dh = [max(abs(p[1] - 2000.0), 1e-3) for p in pts]
-        ok = [p[2] for p in pts]
-        k = range(len(pts))
-        ax[1].plot([i for i in k if ok[i]], [dh[i] for i in k if ok[i]], m, color=c, ms=3,
-                   alpha=0.7, label=f"{name}: in box {sum(ok)}/{len(pts)}")
-        if not all(ok):
-            ax[1].plot([i for i in k if not ok[i]], [dh[i] for i in k if not ok[i]], "x",
-                       color=c, ms=5, label=f"{name}: not in box")
-    ax[1].axhline(500.0, color="k", lw=1, ls="--", label="box edge (|h - hf| = 500 m)")
-    ax[1].set(xlabel="dispersion sample", ylabel="|h(tf) - hf| [m]", yscale="log",
-              title=f"dispersion ({res['samples']} samples: theta0, h0, thrust +-3 %, "
-                    f"Isp +-1 %)")
-    ax[1].legend(fontsize=8)
-    for a in ax:
-        a.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-
-
-__all__ = ["register", "run_report"]

@@ -1,35 +1,40 @@
 """S3 lunar soft landing: the Pontryagin problems for the shooting solver and the closed loops.
 
-* :func:`landing_problem` -- the paper's P-system (seed 002, eqs. (1)-(7)): unknowns
+* :func:`landing_problem` -- the paper's P-system (Mozzhorina 2017, eqs. (1)-(7)): unknowns
   ``psi1(0), psi3(0), T``; residuals ``h(T), V(T), psi3(T)``; ``psi2(0) = psi1(0) V0 / gL``.
 * :func:`moon_landing_problem` -- dymos' normalised moon-landing example (h0 = 1, v0 = -0.783,
   m0 = 1, thrust in [0, 1.227], dm/dt = -thrust / 2.349, maximise m_f; known m_f ~ 0.3953):
   the solver's second user.
-* Closed loops: the LunarLander plant with the optimal *program* (engine on at t_switch) and with
-  the optimal law as *feedback* (engine on at the switching curve); ``build_fmus.py`` builds both.
+* Closed loops: the LunarLander plant with the optimal *program* (engine on at t_switch,
+  :data:`PROGRAM_WIRING`; its start values :func:`program_defaults` are computed when the
+  closed-loop FMU is built) and with the optimal law as *feedback* (engine on at the switching
+  curve, :data:`FEEDBACK_WIRING`).  Both stop at the plant's ``status`` (1 at touchdown).
+
+Nothing here is computed at import time.
 
 References
 ----------
-Seed 002: T.Yu. Mozzhorina, 2017 (problem, Table 1 guesses, Table 2 numbers).
+T.Yu. Mozzhorina, 2017 (problem, Table 1 guesses, Table 2 numbers).
 dymos ``examples/moon_landing`` (OpenMDAO/dymos) for the second problem.
 """
 from __future__ import annotations
 
-from descent_fmus.models.lunar_landing import LanderParams, optimal_landing, rhs as lander_rhs
-from descent_fmus.synthesis.cosim import Wiring
-from descent_fmus.synthesis.scenarios import ClosedLoopSpec, register
+from descent_fmus.models.lunar_landing import STEP, LanderParams, optimal_landing
+from descent_fmus.models.lunar_landing import rhs as lander_rhs
+from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
 from descent_fmus.synthesis.methods.shooting import BangBang, PontryaginProblem
 
 __all__ = ["landing_problem", "paper_guess", "moon_landing_problem", "MOON", "PAPER_GUESSES",
            "PAPER_TABLE2", "PAPER_ITERATIONS", "PAPER_INITIAL_NORMS", "moon_guess",
-           "PROGRAM_WIRING", "FEEDBACK_WIRING", "STEP", "STOP_TIME"]
+           "PROGRAM_WIRING", "FEEDBACK_WIRING", "STEP", "STOP_TIME", "PLANT_PARAMETERS",
+           "PROGRAM_LOOP_PARAMETERS", "FEEDBACK_LOOP_PARAMETERS", "program_defaults"]
 
-#: Table 1 of seed 002: starting guesses (psi1(0), psi3(0), T) ...
+#: Table 1 of Mozzhorina (2017): starting guesses (psi1(0), psi3(0), T) ...
 PAPER_GUESSES = ((-0.15, -0.7, 15.0), (-0.10, -0.7954, 10.0), (-0.30, -0.0810, 20.0))
 #: ... Newton iterations (classical = modified) and initial residual norms the paper reports.
 PAPER_ITERATIONS = (4, 6, 5)
 PAPER_INITIAL_NORMS = (2.170, 25.928, 187.70)
-#: Table 2 of seed 002, "shooting" row (umax = 14.57, see models/README.md).
+#: Table 2 of Mozzhorina (2017), "shooting" row (umax = 14.57, see models/README.md).
 PAPER_TABLE2 = dict(t_switch=4.7347, T=16.4083, V_switch=15.85820, h_switch=93.0174, fuel=170.08,
                     psi1=-0.492987, psi3_0=-0.017990)
 
@@ -70,13 +75,25 @@ def landing_problem(p: LanderParams = LanderParams()) -> PontryaginProblem:
         unknowns=("psi1(0)", "psi3(0)", "T"), residual_names=("h(T)", "V(T)", "psi3(T)"),
         domain=domain,
         hint=("Choose a guess whose switching function changes sign on [0, T], e.g. psi3(0) "
-              "from the paper's eq. (8) for a switch at T/2 (descent-fmus land --guess "
-              "PSI1 auto T)"))
+              "from the paper's eq. (8) for a switch at T/2 (descent-fmus lunar-landing solve "
+              "--guess PSI1 auto T)"))
 
 
 def paper_guess(psi1: float, T: float, p: LanderParams = LanderParams(),
                 t_switch: float | None = None) -> tuple:
-    """Seed 002 eq. (8): ``psi3(0)`` that puts the switch at ``t_switch`` (default ``T/2``)."""
+    """Mozzhorina (2017) eq. (8): the guess ``(psi1, psi3(0), T)`` whose ``psi3(0)`` puts the
+    switch at ``t_switch`` [s] (default ``T/2``).
+
+    Parameters
+    ----------
+    psi1 : float
+        psi1(0) of the guess.
+    T : float
+        Final time of the guess [s].
+    p : LanderParams
+    t_switch : float, optional
+        Switch time the guess aims at [s].
+    """
     ts = 0.5 * T if t_switch is None else t_switch
     psi3 = -1.0 - psi1 * (p.V0 / p.gL + ts) * p.beta / p.m0
     return (psi1, psi3, T)
@@ -127,7 +144,7 @@ def moon_landing_problem() -> PontryaginProblem:
 
 
 def moon_guess(lh: float, tf: float, t_switch: float | None = None) -> tuple:
-    """A guess for :func:`moon_landing_problem` in the spirit of seed 002 eq. (8).
+    """A guess for :func:`moon_landing_problem` in the spirit of Mozzhorina (2017) eq. (8).
 
     ``lv(0)`` from ``H(0) = 0`` with the engine off, ``lm(0)`` from ``Phi(t_switch) = 0``
     (default ``t_switch = tf / 2``) -- a guess that switches once, so the Jacobian is regular.
@@ -138,51 +155,48 @@ def moon_guess(lh: float, tf: float, t_switch: float | None = None) -> tuple:
 
 
 # --------------------------------------------------------------------------- closed loops
-#: Communication step of the landing closed loops [s].  The controllers average the control over
-#: the step in which they switch (seed 002's Fedorenko averaging); the residual O(step^2)
-#: altitude error is 4e-5 m at 0.01 s (touchdown speed < 0.02 m/s, tests/test_lunar_landing.py).
-STEP = 0.01
 #: Final time of the closed loops [s]: 2.4x the nominal landing time, room for dispersed starts.
 STOP_TIME = 40.0
 
-_OPT = optimal_landing()
-
 _EXPOSED_PLANT = (("h", "plant", "h"), ("V", "plant", "V"), ("m", "plant", "m"),
-                  ("fuel", "plant", "fuel"), ("touched_down", "plant", "touched_down"),
-                  ("t_touchdown", "plant", "t_touchdown"),
-                  ("V_touchdown", "plant", "V_touchdown"))
-_PLANT_PARAMS = (("h0", "plant", "h0"), ("V0", "plant", "V0"), ("m0", "plant", "m0"),
-                 ("gL", "plant", "gL"), ("umax", "plant", "umax"))
+                  ("fuel", "plant", "fuel"), ("V_touchdown", "plant", "V_touchdown"),
+                  ("status", "plant", "status"), ("t_end", "plant", "t_end"))
+
+#: Plant parameters both closed-loop FMUs expose: (container name, role, component variable).
+PLANT_PARAMETERS = (("h0", "plant", "h0"), ("V0", "plant", "V0"), ("m0", "plant", "m0"),
+                    ("gL", "plant", "gL"), ("umax", "plant", "umax"))
+#: Parameters of LunarLanderProgramClosedLoop.fmu.
+PROGRAM_LOOP_PARAMETERS = PLANT_PARAMETERS + (("t_switch", "controller", "t_switch"),
+                                              ("t_off", "controller", "t_off"))
+#: Parameters of LunarLanderFeedbackClosedLoop.fmu.
+FEEDBACK_LOOP_PARAMETERS = PLANT_PARAMETERS + (("ctrl_umax", "controller", "umax"),
+                                               ("g_nominal", "controller", "g_nominal"),
+                                               ("estimate_g", "controller", "estimate_g"))
 
 PROGRAM_WIRING = Wiring(
     name="LunarLanderProgramClosedLoop", plant="LunarLander", controller="LandingProgram",
-    to_controller=(), to_plant=(("u", "u"),), step=STEP, stop_time=STOP_TIME,
-    stop_flag="touched_down", exposed=_EXPOSED_PLANT + (("u", "controller", "u"),),
-    description=(f"S3 lunar landing (LunarLander) under the optimal open-loop program: engine off,"
-                 f" full thrust from t_switch = {_OPT.t_switch:.6f} s to T = {_OPT.T:.6f} s "
-                 f"(seed 002, umax = 14.57 kg/s)"))
+    to_controller=(), to_plant=(("u", "u"),), step=STEP, stop_time=STOP_TIME, stop=STATUS_STOP,
+    exposed=_EXPOSED_PLANT + (("u", "controller", "u"),),
+    description=("S3 lunar landing (LunarLander) under the optimal open-loop program: engine off, "
+                 "full thrust from t_switch to t_off (defaults: the exact optimum of the default "
+                 "scenario, umax = 14.57 kg/s; Mozzhorina 2017)"))
 
 FEEDBACK_WIRING = Wiring(
     name="LunarLanderFeedbackClosedLoop", plant="LunarLander", controller="LandingSwitch",
     to_controller=(("h", "h"), ("V", "V"), ("m", "m")), to_plant=(("u", "u"),), step=STEP,
-    stop_time=STOP_TIME, stop_flag="touched_down",
+    stop_time=STOP_TIME, stop=STATUS_STOP,
     exposed=_EXPOSED_PLANT + (("u", "controller", "u"), ("h_sw", "controller", "h_sw"),
                               ("g_est", "controller", "g_est")),
     description=("S3 lunar landing (LunarLander) under the optimal law as feedback: full thrust "
-                 "once the state reaches the switching curve h = h_sw(V, m) (seed 002)"))
+                 "once the state reaches the switching curve h = h_sw(V, m) (Mozzhorina 2017)"))
 
-register(
-    slaves=["models/lunar_lander.py", "models/controllers/landing_program.py",
-            "models/controllers/landing_switch.py"],
-    closed_loops=[
-        ClosedLoopSpec(PROGRAM_WIRING, controller_defaults={"t_switch": _OPT.t_switch,
-                                                            "t_off": _OPT.T},
-                       parameters=_PLANT_PARAMS + (("t_switch", "controller", "t_switch"),
-                                                   ("t_off", "controller", "t_off"))),
-        ClosedLoopSpec(FEEDBACK_WIRING,
-                       parameters=_PLANT_PARAMS + (("ctrl_umax", "controller", "umax"),
-                                                   ("g_nominal", "controller", "g_nominal"),
-                                                   ("estimate_g", "controller",
-                                                    "estimate_g"))),
-    ],
-)
+
+def program_defaults(p: LanderParams = LanderParams()) -> dict:
+    """Start values of the LandingProgram FMU that fly the exact optimum of ``p``.
+
+    ``{"t_switch", "t_off", "umax"}`` from :func:`models.lunar_landing.optimal_landing`; called
+    by ``build_fmus.py`` for LunarLanderProgramClosedLoop (the default scenario) and by
+    :class:`~synthesis.systems.lunar_landing.study.LandingLoops` for its nominal conditions.
+    """
+    opt = optimal_landing(p)
+    return {"t_switch": opt.t_switch, "t_off": opt.T, "umax": p.umax}

@@ -1,15 +1,18 @@
 """S3 lunar soft landing: shooting solve, closed-loop flights through the FMUs, dispersion study.
 
-* :func:`solve_landing` -- the paper's shooting problem solved by :mod:`synthesis.methods.shooting`,
-  reported beside the exact solution (:func:`models.lunar_landing.optimal_landing`);
+* :func:`solve_landing` -- the paper's shooting problem solved by
+  :mod:`synthesis.methods.shooting`, reported beside the exact solution
+  (:func:`models.lunar_landing.optimal_landing`);
 * :func:`plot_solution` -- the paper's figures 1-2 (V, h, m vs t; phase plane);
+* :func:`fly_feedback_in_process` -- the feedback law flown without FMUs (same functions);
 * :class:`LandingLoops` -- the program and feedback closed loops (fmpy, FMUs loaded once);
-* :func:`dispersion` / :func:`plot_dispersion` -- seeded dispersion of h0, V0 (±10 %) and gL
-  (±2 %): the feedback law lands softly, the open-loop program does not.
+* :func:`dispersion` / :func:`dispersion_table` / :func:`plot_dispersion` -- seeded dispersion
+  of h0, V0 (+-10 %) and gL (+-2 %) (:func:`dispersion_box`): the feedback law lands softly, the
+  open-loop program does not.
 
 References
 ----------
-Seed 002: T.Yu. Mozzhorina, 2017 (Tables 1-2, Figs. 1-2, closing remark on synthesis).
+T.Yu. Mozzhorina, 2017 (Tables 1-2, Figs. 1-2, closing remark on synthesis).
 """
 from __future__ import annotations
 
@@ -20,28 +23,51 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.controllers.lunar_landing_switch import SwitchLaw
-from descent_fmus.models.lunar_landing import LanderIntegrator, LanderParams, optimal_landing
-from descent_fmus.synthesis.methods.shooting import ShootingResult, solve
+from descent_fmus.models.integrators import REACHED
+from descent_fmus.models.lunar_landing import (STEP, LanderIntegrator, LanderParams,
+                                               OptimalLanding, constant_flow_state,
+                                               optimal_landing)
+from descent_fmus.synthesis.dispersion import Box
+from descent_fmus.synthesis.methods.shooting import ShootingError, ShootingResult, solve
 from descent_fmus.synthesis.plotting import save_figure
 
-__all__ = ["LandingSolution", "solve_landing", "plot_solution", "LandingLoops", "Touchdown",
-           "dispersion", "dispersion_table", "plot_dispersion", "SOFT_SPEED", "FMU_DIR",
-           "DISPERSION"]
+__all__ = ["LandingSolution", "solve_landing", "plot_solution", "fly_feedback_in_process",
+           "LandingLoops", "Touchdown", "dispersion_box", "dispersion", "dispersion_table",
+           "plot_dispersion", "finite_or_none", "SOFT_SPEED", "DISPERSION", "DEFAULT_GUESS",
+           "LAWS"]
 
-FMU_DIR = Path(__file__).resolve().parent.parent / "fmus"
-#: A touchdown is soft when |V| at h = 0 is below this [m/s] (the acceptance bar of issue 4).
+#: A touchdown is soft when |V| at h = 0 is below this [m/s] ([choice], models/README.md).
 SOFT_SPEED = 0.05
-#: Relative half-widths of the dispersion box: h0, V0 (±10 %) and gL (±2 %) (issue 4).
+#: Relative half-widths of the dispersion box: h0, V0 (+-10 %) and gL (+-2 %).
 DISPERSION = dict(h0=0.10, V0=0.10, gL=0.02)
+#: The paper's guess I, (psi1(0), psi3(0), T) (Mozzhorina 2017, Table 1).
+DEFAULT_GUESS = (-0.15, -0.7, 15.0)
+#: The two closed loops: the open-loop optimal program and the optimal law as feedback.
+LAWS = ("program", "feedback")
 
 
-def fly_feedback_in_process(p: LanderParams = LanderParams(), dt: float = 0.01,
+def fly_feedback_in_process(p: LanderParams = LanderParams(), dt: float = STEP,
                             max_steps: int = 4000):
     """The feedback law flown without FMUs: the same SwitchLaw and LanderIntegrator the FMUs
-    run, the same master order (read state, law, step).  Returns (integrator, steps)."""
+    run, the same master order (read state, law, step).
+
+    Parameters
+    ----------
+    p : LanderParams
+    dt : float
+        Communication step [s].
+    max_steps : int
+        Steps after which the flight is abandoned.
+
+    Returns
+    -------
+    (LanderIntegrator, int)
+        The integrator after the flight (``status``, ``t_end``, ``V_touchdown``, ``x``) and the
+        number of steps taken.
+    """
     fi, law = LanderIntegrator(p), SwitchLaw(dt=dt)
     k = 0
-    while not fi.touched_down and k < max_steps:
+    while fi.running and k < max_steps:
         u = law.control(*fi.x)
         V = fi.x[1]
         fi.advance((k + 1) * dt, u)
@@ -52,7 +78,23 @@ def fly_feedback_in_process(p: LanderParams = LanderParams(), dt: float = 0.01,
 
 @dataclass
 class LandingSolution:
-    """A shooting solve of S3 with the numbers of the paper's Table 2 and the exact values."""
+    """A shooting solve of S3 with the numbers of the paper's Table 2 and the exact values.
+
+    Attributes
+    ----------
+    params : LanderParams
+    result : ShootingResult
+    t_switch, T : float
+        Switch and final time [s].
+    V_switch, h_switch : float
+        Downward speed [m/s] and altitude [m] at the switch.
+    fuel : float
+        Fuel burnt [kg].
+    psi1, psi3_0 : float
+        psi1(0), psi3(0) found by the shooting.
+    exact : OptimalLanding
+        The closed-form optimum of the same data.
+    """
 
     params: LanderParams
     result: ShootingResult
@@ -63,7 +105,7 @@ class LandingSolution:
     fuel: float
     psi1: float
     psi3_0: float
-    exact: object
+    exact: OptimalLanding
 
     def summary(self) -> dict:
         r = self.result
@@ -82,12 +124,25 @@ class LandingSolution:
         return out
 
 
-def solve_landing(p: LanderParams = LanderParams(), guess=(-0.15, -0.7, 15.0),
+def solve_landing(p: LanderParams = LanderParams(), guess=DEFAULT_GUESS,
                   method: str = "event", damped: bool = False, n_steps: int = 1000,
                   tol: float | None = None) -> LandingSolution:
     """Solve S3 by shooting from ``guess = (psi1(0), psi3(0), T)``.
 
-    ``psi3(0)`` may be None: then it is set by the paper's eq. (8) for a switch at ``T/2``.
+    Parameters
+    ----------
+    p : LanderParams
+    guess : tuple of 3 float
+        ``(psi1(0), psi3(0), T [s])``; ``psi3(0)`` may be None: then it is set by the paper's
+        eq. (8) for a switch at ``T/2``.
+    method : {"event", "interpolate"}
+        Switch handling of :func:`synthesis.methods.shooting.solve`.
+    damped : bool
+        Modified (damped) Newton instead of the classical one.
+    n_steps : int
+        RK4 steps of the ``interpolate`` method.
+    tol : float, optional
+        Max-norm of the residuals to stop at (default: the solver's, per method).
 
     Raises
     ------
@@ -96,7 +151,8 @@ def solve_landing(p: LanderParams = LanderParams(), guess=(-0.15, -0.7, 15.0),
     synthesis.methods.shooting.ShootingError
         Singular Jacobian (no switch for this guess), integration failure, no convergence.
     """
-    from descent_fmus.synthesis.systems.lunar_landing.problems import landing_problem, paper_guess
+    from descent_fmus.synthesis.systems.lunar_landing.problems import (landing_problem,
+                                                                       paper_guess)
 
     p.require_stoppable()
     exact = optimal_landing(p)
@@ -107,20 +163,13 @@ def solve_landing(p: LanderParams = LanderParams(), guess=(-0.15, -0.7, 15.0),
                 n_steps=n_steps, tol=tol)
     tr = res.trajectory
     if len(tr.switches) != 1:
-        from descent_fmus.synthesis.methods.shooting import ShootingError
         raise ShootingError(f"the converged trajectory switches {len(tr.switches)} times; the "
                             f"fuel-optimal landing switches once (coast, then full thrust)")
     ts = float(tr.switches[0])
-    y_sw = _coast_state(p, ts)
+    y_sw = constant_flow_state((p.h0, p.V0, p.m0), 0.0, ts, p.gL, p.beta)   # the coast: exact
     return LandingSolution(params=p, result=res, t_switch=ts, T=float(res.z[2]),
                            V_switch=y_sw[1], h_switch=y_sw[0], fuel=p.m0 - float(tr.y_T[2]),
                            psi1=float(res.z[0]), psi3_0=float(res.z[1]), exact=exact)
-
-
-def _coast_state(p: LanderParams, t: float):
-    """State (h, V, m) at time ``t`` of the initial coast (u = 0: a parabola, exact)."""
-    from descent_fmus.models.lunar_landing import constant_flow_state
-    return constant_flow_state((p.h0, p.V0, p.m0), 0.0, t, p.gL, p.beta)
 
 
 def plot_solution(sol: LandingSolution, path, extra_switches=(4.51, 4.91)) -> Path:
@@ -129,11 +178,7 @@ def plot_solution(sol: LandingSolution, path, extra_switches=(4.51, 4.91)) -> Pa
     Beside the optimum, free fall and full thrust switched on at ``extra_switches`` [s] (the
     paper shows 4.51 and 4.91 s) are drawn from the closed-form arcs.
     """
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from descent_fmus.models.lunar_landing import constant_flow_state
 
     p = sol.params
     tr = sol.result.trajectory
@@ -176,32 +221,65 @@ def plot_solution(sol: LandingSolution, path, extra_switches=(4.51, 4.91)) -> Pa
     ax[1, 1].set(xlabel="h [m]", ylabel="V [m/s]", title="Fig. 2: phase trajectories")
     ax[0, 1].set_ylim(bottom=0.0)
     ax[1, 1].set_xlim(left=0.0)
-    for a in ax.flat:
-        a.grid(alpha=0.3)
     ax[0, 0].legend(fontsize=8)
     fig.suptitle(f"S3 lunar landing, umax = {p.umax} kg/s: T = {sol.T:.4f} s, "
                  f"fuel = {sol.fuel:.2f} kg ({sol.result.method}, {sol.result.iterations} "
                  f"Newton iterations)")
-    return save_figure(fig, path, dpi=110)
+    return save_figure(fig, path, ax.flat, dpi=110)
 
 
 # --------------------------------------------------------------------------- closed loops
 @dataclass
 class Touchdown:
-    """Outcome of one closed-loop landing through the FMUs."""
+    """Outcome of one closed-loop landing through the FMUs.
+
+    Attributes
+    ----------
+    law : {"program", "feedback"}
+    h0, V0, gL : float
+        Start altitude [m], downward speed [m/s] and gravity [m/s2] of the flight.
+    status : int
+        The plant's final ``status`` (1 REACHED = touched down; 0 still flying at t+).
+    V_touchdown : float
+        Downward speed at touchdown [m/s] (NaN if it never touched down).
+    t_touchdown : float
+        Time of touchdown [s], the plant's ``t_end`` (NaN if it never touched down).
+    fuel : float
+        Fuel burnt [kg].
+    """
 
     law: str
     h0: float
     V0: float
     gL: float
-    touched_down: bool
-    V_touchdown: float     #: downward speed at touchdown [m/s] (NaN if it never touched down)
-    t_touchdown: float     #: [s] (NaN if not)
-    fuel: float            #: [kg]
+    status: int
+    V_touchdown: float
+    t_touchdown: float
+    fuel: float
+
+    @property
+    def touched_down(self) -> bool:
+        return self.status == REACHED
 
     @property
     def soft(self) -> bool:
         return self.touched_down and abs(self.V_touchdown) < SOFT_SPEED
+
+    def summary(self) -> dict:
+        """JSON-ready: NaN (no touchdown) becomes None."""
+        return dict(status=self.status, touched_down=self.touched_down,
+                    V_touchdown=finite_or_none(self.V_touchdown),
+                    t_touchdown=finite_or_none(self.t_touchdown), fuel=self.fuel,
+                    soft=self.soft)
+
+
+def finite_or_none(value):
+    """``value`` for JSON: every non-finite float in it (no touchdown) becomes None."""
+    if isinstance(value, dict):
+        return {k: finite_or_none(v) for k, v in value.items()}
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
 
 
 class LandingLoops:
@@ -209,23 +287,26 @@ class LandingLoops:
 
     Parameters
     ----------
-    fmu_dir : path-like
+    fmu_dir : path-like, optional
         Folder of the built FMUs (``LunarLander.fmu``, ``LandingProgram.fmu``,
-        ``LandingSwitch.fmu``).
+        ``LandingSwitch.fmu``); default :func:`synthesis.paths.fmu_dir`.
     nominal : LanderParams
-        The conditions the program is computed for (its t_switch, t_off).
+        The conditions the program is computed for (its t_switch, t_off) and the feedback law's
+        nominal umax, beta, gL.
     """
 
     RECORD = ("h", "V", "m", "fuel")
 
-    def __init__(self, fmu_dir=FMU_DIR, nominal: LanderParams = LanderParams()):
+    def __init__(self, fmu_dir=None, nominal: LanderParams = LanderParams()):
         from descent_fmus.synthesis.cosim import ClosedLoop
-        from descent_fmus.synthesis.systems.lunar_landing.problems import FEEDBACK_WIRING, PROGRAM_WIRING
+        from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
+        from descent_fmus.synthesis.systems.lunar_landing.problems import (FEEDBACK_WIRING,
+                                                                           PROGRAM_WIRING,
+                                                                           program_defaults)
 
-        d = Path(fmu_dir)
+        d = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
         self.nominal = nominal
-        opt = optimal_landing(nominal)
-        self.program_values = {"t_switch": opt.t_switch, "t_off": opt.T, "umax": nominal.umax}
+        self.program_values = program_defaults(nominal)
         self.feedback_values = {"umax": nominal.umax, "beta": nominal.beta,
                                 "g_nominal": nominal.gL}
         self.loops = {}
@@ -253,7 +334,19 @@ class LandingLoops:
             record: bool = False):
         """One landing of ``law`` ("program" | "feedback") from (h0, V0) in gravity gL.
 
-        Returns ``(Touchdown, ClosedLoopResult)``.
+        Parameters
+        ----------
+        law : {"program", "feedback"}
+        h0, V0, gL : float, optional
+            Start altitude [m], downward speed [m/s], gravity [m/s2]; default the nominal ones.
+        estimate_g : bool
+            The feedback law estimates the gravity from coast steps.
+        record : bool
+            Record the trajectories (h, V, m, fuel, u).
+
+        Returns
+        -------
+        (Touchdown, ClosedLoopResult)
         """
         if law not in self.loops:
             raise ValueError(f"unknown law {law!r}; choose program or feedback")
@@ -266,41 +359,62 @@ class LandingLoops:
             ctrl["estimate_g"] = int(bool(estimate_g))
         res = self.loops[law].run(plant, ctrl, record=record)
         f = res.final
-        down = bool(res.stopped)
+        down = f["status"] == REACHED
         td = Touchdown(law=law, h0=plant["h0"], V0=plant["V0"], gL=plant["gL"],
-                       touched_down=down, V_touchdown=f["V_touchdown"] if down else math.nan,
-                       t_touchdown=f["t_touchdown"] if down else math.nan, fuel=f["fuel"])
+                       status=f["status"], V_touchdown=f["V_touchdown"] if down else math.nan,
+                       t_touchdown=f["t_end"] if down else math.nan, fuel=f["fuel"])
         return td, res
 
 
+def dispersion_box(nominal: LanderParams = LanderParams()) -> Box:
+    """The dispersion set around ``nominal``: h0, V0 +-10 %, gL +-2 % (relative, uniform)."""
+    return Box.around(asdict(nominal), relative=DISPERSION)
+
+
 def dispersion(loops: LandingLoops, n: int = 40, seed: int = 2017, corners: bool = True,
-               laws=("program", "feedback")):
-    """Seeded dispersion: ``n`` uniform samples of the box h0, V0 ± 10 %, gL ± 2 % (+ corners).
+               laws=LAWS) -> list:
+    """Seeded dispersion: ``n`` uniform samples of :func:`dispersion_box` (+ its 8 corners).
 
-    Returns a list of dicts, one per start: the dispersed values and a :class:`Touchdown` per law.
+    Parameters
+    ----------
+    loops : LandingLoops
+        The closed loops (their nominal conditions are the centre of the box).
+    n : int
+        Uniform samples (0: only the corners).
+    seed : int
+    corners : bool
+        Append the 2^3 corners of the box.
+    laws : sequence of str
+
+    Returns
+    -------
+    list of dict
+        One per start: ``h0, V0, gL``, ``fuel_opt`` (the exact optimum of that start [kg]) and
+        a :class:`Touchdown` per law.
     """
-    import itertools
-
-    rng = np.random.default_rng(seed)
-    nom = loops.nominal
-    units = [tuple(rng.uniform(-1.0, 1.0, 3)) for _ in range(n)]
-    if corners:
-        units += list(itertools.product((-1.0, 1.0), repeat=3))
+    box = dispersion_box(loops.nominal)
+    if n > 0:
+        starts = box.sample(n, seed, corners=corners)
+    else:
+        starts = box.sample(1, seed, method="corners") if corners else []
     rows = []
-    for a, b, c in units:
-        h0 = nom.h0 * (1.0 + DISPERSION["h0"] * a)
-        V0 = nom.V0 * (1.0 + DISPERSION["V0"] * b)
-        gL = nom.gL * (1.0 + DISPERSION["gL"] * c)
+    for s in starts:
+        h0, V0, gL = s["h0"], s["V0"], s["gL"]
         row = dict(h0=h0, V0=V0, gL=gL,
-                   fuel_opt=optimal_landing(nom.with_(h0=h0, V0=V0, gL=gL)).fuel)
+                   fuel_opt=optimal_landing(loops.nominal.with_(h0=h0, V0=V0, gL=gL)).fuel)
         for law in laws:
             row[law] = loops.fly(law, h0, V0, gL)[0]
         rows.append(row)
     return rows
 
 
-def dispersion_table(rows, laws=("program", "feedback")) -> tuple:
-    """(text table, summary dict) of a :func:`dispersion` result."""
+def dispersion_table(rows, laws=LAWS) -> tuple:
+    """(text table, summary dict) of a :func:`dispersion` result.
+
+    The summary holds, per law: runs, soft landings, the worst and median touchdown speed
+    [m/s] (inf for a start that never touches down) with the worst start, and the largest fuel
+    burnt above each start's optimum [kg].
+    """
     head = f"{'h0 [m]':>8} {'V0 [m/s]':>9} {'gL [m/s2]':>10} {'opt. fuel':>9}" + "".join(
         f" {law + ' |V_td| [m/s]':>24} {'fuel [kg]':>9}" for law in laws)
     lines = [head]
@@ -330,9 +444,8 @@ def dispersion_table(rows, laws=("program", "feedback")) -> tuple:
 
 
 def plot_dispersion(loops: LandingLoops, rows, path, n_traj: int = 12) -> Path:
-    """PNG: touchdown speed of each dispersed start (program vs feedback) and phase trajectories."""
-    import matplotlib
-    matplotlib.use("Agg")
+    """PNG: touchdown speed of each dispersed start (program vs feedback) and phase trajectories
+    of the first ``n_traj`` starts and of the nominal one (flown again, recorded)."""
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))

@@ -1,4 +1,21 @@
-"""(being migrated to the new layout)"""
-from descent_fmus.synthesis.registry import System
+"""S2 -- Mars capsule: the Bellman/averaging angle-of-attack law of Lyubimov & Kurkina.
 
-SYSTEM = System(stem="mars", title="mars (being migrated)")
+Files of this system: ``models/mars.py`` (the descent and averaged angle-of-attack equations,
+MarsIntegrator, the MarsCapsule FMU), ``models/mars_6dof.py`` (the rigid-body check of the
+averaging, the MarsCapsule6DOF FMU), ``models/controllers/mars_bellman.py`` (the law, the
+MarsBellmanController FMU), this package (``wiring`` the closed loops, ``flight`` flights
+through the FMUs and the alpha(t) plot, ``cli`` the ``descent-fmus mars fly`` command),
+``tests/test_mars_*.py``, ``benchmarks/mars.py`` and ``docs/make_mars_figures.py``.
+"""
+from descent_fmus.synthesis.registry import ClosedLoopSpec, System
+from descent_fmus.synthesis.systems.mars import cli, wiring
+
+SYSTEM = System(
+    stem="mars",
+    title="S2 Mars capsule: Bellman/averaging angle-of-attack law (alpha with and without it)",
+    fmus=("mars:MarsCapsule", "mars_6dof:MarsCapsule6DOF",
+          "controllers.mars_bellman:MarsBellmanController"),
+    closed_loops=(ClosedLoopSpec(wiring.WIRING, parameters=wiring.LOOP_PARAMETERS,
+                                 controller_defaults=wiring.controller_defaults),),
+    add_commands=cli.add_commands,
+)

@@ -1,38 +1,39 @@
 """Fly the S2 Mars closed loops through the FMUs, summarise and plot them.
 
-One :class:`~synthesis.cosim.ClosedLoop` (plant FMU + MarsBellmanController FMU) is loaded and
-reset per run: the controlled flight, the uncontrolled one (``u_max = 0``: the same controller
-FMU outputs u = 0) and the paper's printed formula (``formula = 1``) are three runs of the same
-two FMUs with other start values.
+One :class:`~descent_fmus.synthesis.cosim.ClosedLoop` (plant FMU + MarsBellmanController FMU) is
+loaded and reset per run: the controlled flight, the uncontrolled one (``u_max = 0``: the same
+controller FMU outputs u = 0) and the paper's printed formula (``formula = 1``) are three runs
+of the same two FMUs with other start values.
 
 References
 ----------
-Seed 001 (Lyubimov & Kurkina), figs. 1-2 (alpha(t) without and with the control).
+Lyubimov & Kurkina, figs. 1-2 (alpha(t) without and with the control).
 """
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from descent_fmus.models.controllers.mars_bellman import CONSISTENT, PAPER
+from descent_fmus.models.integrators import REACHED, STATUS_NAMES
 from descent_fmus.synthesis.cosim import ClosedLoop, ClosedLoopResult
-from descent_fmus.synthesis.scenarios import mars as spec
+from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.plotting import save_figure
+from descent_fmus.synthesis.systems.mars.wiring import WIRING
 
-__all__ = ["FMU_DIR", "MarsRun", "open_loop", "fly", "fly_set", "plot_alpha", "RECORD",
-           "RECORD_6DOF", "FORMULAS"]
+__all__ = ["MarsRun", "load_loop", "fly", "fly_set", "plot_alpha", "RECORD", "RECORD_6DOF",
+           "FORMULAS", "ALPHA_TARGET"]
 
-FMU_DIR = Path(os.environ.get("DESCENT_FMUS_DIR",
-                              Path(__file__).resolve().parent.parent / "fmus"))
+#: Plant outputs recorded besides the connected ones (averaged plant).
 RECORD = ("h", "q", "omega_a", "theta_dot")
-RECORD_6DOF = RECORD + ("alpha_m1", "alpha_m2")
+#: ... and for the rigid-body plant (``alpha`` is not connected when the law is fed mode 1).
+RECORD_6DOF = RECORD + ("alpha", "alpha_m1", "alpha_m2")
 #: CLI names of the controller's ``formula`` values.
 FORMULAS = {"consistent": CONSISTENT, "paper": PAPER}
-#: Acceptance of SPEC S2 [rad]: alpha at the end of the descent with the law.
+#: alpha at the end of the descent the law must reach [rad] (Lyubimov & Kurkina, fig. 2).
 ALPHA_TARGET = 0.01
 
 
@@ -53,7 +54,8 @@ class MarsRun:
         f = self.result.final
         out = {"label": self.label, "alpha_end": self.alpha_end,
                "alpha_end_deg": math.degrees(self.alpha_end), "t_end": f["t_end"],
-               "h_end": f["h"], "V_end": f["V"], "reached_h_end": bool(self.result.stopped),
+               "h_end": f["h"], "V_end": f["V"], "status": STATUS_NAMES[f["status"]],
+               "reached_h_end": f["status"] == REACHED, "plant": dict(self.plant_values),
                "controller": dict(self.controller_values)}
         if self.result.outputs:
             u = self.result["ctrl.u"]
@@ -65,15 +67,15 @@ class MarsRun:
         return out
 
 
-def open_loop(fmu_dir=FMU_DIR, wiring=None, record=RECORD) -> ClosedLoop:
+def load_loop(fmu_dir=None, wiring=WIRING, record=RECORD) -> ClosedLoop:
     """Load the plant FMU and the controller FMU of ``wiring`` once (reset per :func:`fly`).
 
-    ``wiring`` defaults to the averaged plant's :data:`synthesis.systems.mars.wiring.WIRING`; pass
-    ``WIRING_6DOF`` (with ``record=RECORD_6DOF``) for the rigid-body plant.
+    ``wiring`` defaults to the averaged plant's :data:`~.wiring.WIRING`; pass
+    ``WIRING_6DOF`` or ``WIRING_6DOF_INSTANT`` (with ``record=RECORD_6DOF``) for the rigid-body
+    plant.  ``fmu_dir`` defaults to :func:`descent_fmus.synthesis.paths.fmu_dir`.
     """
-    fmu_dir = Path(fmu_dir)
-    w = wiring or spec.WIRING
-    return ClosedLoop(w, fmu_dir / f"{w.plant}.fmu", fmu_dir / f"{w.controller}.fmu",
+    d = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
+    return ClosedLoop(wiring, d / f"{wiring.plant}.fmu", d / f"{wiring.controller}.fmu",
                       record=record)
 
 
@@ -88,12 +90,12 @@ def fly(loop: ClosedLoop, label: str, plant_values: dict | None = None,
     return MarsRun(label, pv, cv, res)
 
 
-def fly_set(fmu_dir=FMU_DIR, control: bool = True, formulas=("consistent",),
+def fly_set(fmu_dir=None, control: bool = True, formulas=("consistent",),
             plant_values: dict | None = None, controller_values: dict | None = None,
             record: bool = True) -> list[MarsRun]:
     """The uncontrolled flight and (if ``control``) one controlled flight per formula."""
     runs = []
-    with open_loop(fmu_dir) as loop:
+    with load_loop(fmu_dir) as loop:
         runs.append(fly(loop, "no control", plant_values,
                         dict(controller_values or {}, u_max=0.0), record))
         if control:
@@ -105,8 +107,6 @@ def fly_set(fmu_dir=FMU_DIR, control: bool = True, formulas=("consistent",),
 
 def plot_alpha(runs, path, title: str | None = None, log: bool = True) -> Path:
     """alpha(t) of several recorded runs on one figure (the paper's figs. 1-2 together)."""
-    import matplotlib
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(1, 2, figsize=(12, 4.2))
@@ -116,7 +116,7 @@ def plot_alpha(runs, path, title: str | None = None, log: bool = True) -> Path:
         ax[0].plot(res.time, res["alpha"], ls=ls,
                    label=f"{r.label}: alpha_end = {r.alpha_end:.2e} rad")
         ax[1].plot(res.time, res["ctrl.u"], ls=ls, lw=0.6, label=r.label)
-    ax[0].axhline(ALPHA_TARGET, color="k", ls=":", lw=0.8, label="0.01 rad")
+    ax[0].axhline(ALPHA_TARGET, color="k", ls=":", lw=0.8, label=f"{ALPHA_TARGET} rad")
     if log:
         ax[0].set_yscale("log")
     ax[0].set(xlabel="t [s]", ylabel="spatial angle of attack alpha [rad]",

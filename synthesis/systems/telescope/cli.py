@@ -1,59 +1,89 @@
-"""``descent-fmus reorient``: S4 telescope reorientation by the direct method (seed 003)."""
+"""``descent-fmus telescope reorient | write-programs``: the S4 reorientation by the direct
+method (Voronov 2009)."""
 from __future__ import annotations
 
 import math
 from pathlib import Path
 
-from descent_fmus.synthesis.cli import CliError, emit
+from descent_fmus.models.telescope import T_DEFAULT, TARGET_W, TelescopeParams
+from descent_fmus.synthesis.cli_common import (CliError, add_common_options,
+                                               add_parameter_options, emit, finite_float,
+                                               fmu_folder, parameter_overrides, positive_float,
+                                               positive_int)
+from descent_fmus.synthesis.systems.telescope.reorientation import (MAX_ITER, TOL_FLEXIBLE,
+                                                                    TOL_RIGID)
 
-FMU_DIR = Path(__file__).resolve().parents[2] / "fmus"
+__all__ = ["add_commands", "PARAMETERS"]
+
+#: Body parameters the reorient action takes as options (defaults from TelescopeParams).
+PARAMETERS = ("h",)
 
 
-def register(sub) -> None:
-    p = sub.add_parser("reorient", help="S4: compute the CMG gimbal-rate program that reorients "
-                       "the telescope (direct Newton-Kantorovich method)")
+def add_commands(sub) -> None:
+    p = sub.add_parser("reorient", help="compute the CMG gimbal-rate program that reorients the "
+                       "telescope (direct Newton-Kantorovich method)")
     p.add_argument("--flexible", action="store_true",
                    help="flexible telescope (2 panels x 2 modes), reduced algorithm")
-    p.add_argument("--T", type=float, default=40.0, help="reorientation time [s] (default 40)")
-    p.add_argument("--tol", type=float, help="tolerance on every component of lambda and omega "
-                   "(default 1e-7 rigid, 1e-8 flexible)")
-    p.add_argument("--w-final", type=float, nargs=3, metavar=("W1", "W2", "W3"),
-                   help="final body rate [deg/s] (default -0.3 0 -0.3)")
-    p.add_argument("--max-iter", type=int, default=20, help="iteration limit (default 20)")
+    p.add_argument("--T", type=positive_float, default=T_DEFAULT,
+                   help=f"reorientation time [s] (default {T_DEFAULT:g})")
+    p.add_argument("--tol", type=positive_float,
+                   help="tolerance on every component of lambda and omega (default "
+                        f"{TOL_RIGID:g} rigid, {TOL_FLEXIBLE:g} flexible)")
+    p.add_argument("--w-final", type=finite_float, nargs=3, metavar=("W1", "W2", "W3"),
+                   help="final body rate [deg/s] (default "
+                        + " ".join(f"{math.degrees(w):g}" for w in TARGET_W) + ")")
+    p.add_argument("--max-iter", type=positive_int, default=MAX_ITER,
+                   help=f"iteration limit (default {MAX_ITER})")
+    add_parameter_options(p, TelescopeParams, PARAMETERS)
     p.add_argument("--replay", action="store_true",
                    help="also fly the program through the FMUs with fmpy (needs built FMUs)")
-    p.add_argument("--fmus", type=Path, default=FMU_DIR, help="folder of the built FMUs")
-    p.add_argument("--plot", type=Path, metavar="DIR",
-                   help="write PNGs of u, omega, lambda, beta, singularity measure, miss")
-    p.add_argument("--json", action="store_true", help="print a JSON summary")
-    p.set_defaults(func=run)
+    add_common_options(p, plot="write one PNG of u, omega, lambda, beta, the singularity "
+                               "measure (the modal coordinates) and the miss per iteration")
+    p.set_defaults(func=run_reorient)
+
+    w = sub.add_parser("write-programs", help="solve the rigid and flexible reorientations and "
+                       "store their programs: the defaults of the closed-loop FMUs")
+    w.add_argument("--out", type=Path, default=None, metavar="FILE.json",
+                   help="where to write (default: programs.json of the telescope package, "
+                        "which build_fmus.py reads)")
+    add_common_options(w, fmus=False)
+    w.set_defaults(func=run_write_programs)
 
 
-def run(args) -> int:
-    from descent_fmus.models.telescope import TARGET_W
+def run_reorient(args) -> int:
     from descent_fmus.synthesis.methods.direct_method import ConvergenceError
-    from descent_fmus.synthesis.systems.telescope.reorientation import UnreachableTargetError, plot_reorientation, reorient, \
-        replay
+    from descent_fmus.synthesis.paths import FMUNotFoundError
+    from descent_fmus.synthesis.systems.telescope.reorientation import (UnreachableTargetError,
+                                                                        plot_reorientation,
+                                                                        reorient, replay)
 
     w_f = TARGET_W if args.w_final is None else tuple(math.radians(v) for v in args.w_final)
+    params = TelescopeParams().with_(**parameter_overrides(args, PARAMETERS))
     try:
-        ro = reorient(flexible=args.flexible, T=args.T, tol=args.tol, w_f=w_f,
+        ro = reorient(flexible=args.flexible, T=args.T, tol=args.tol, w_f=w_f, params=params,
                       max_iter=args.max_iter)
     except UnreachableTargetError as exc:
         raise CliError(f"unreachable target: {exc}") from None
     except ConvergenceError as exc:
         raise CliError(f"the direct method failed: {exc}") from None
-    except ValueError as exc:
+    except ValueError as exc:          # an invalid parameter (ParameterError) or problem
         raise CliError(str(exc)) from None
     s = ro.summary()
     if args.replay:
-        from descent_fmus.synthesis.cosim import FMUNotFoundError
         try:
-            s.update(replay(ro, args.fmus))
+            s.update(replay(ro, fmu_folder(args)))
         except (FMUNotFoundError, ValueError) as exc:
             raise CliError(f"cannot replay through the FMUs: {exc}") from None
+        except KeyError as exc:            # FMUs built before a variable was added or renamed
+            raise CliError(f"cannot replay through the FMUs: {exc.args[0]} (rebuild them: "
+                           "python build_fmus.py)") from None
     if args.plot:
-        s["plots"] = [str(p) for p in plot_reorientation(ro, args.plot)]
+        s["plot"] = str(plot_reorientation(ro, args.plot))
+    emit(args, s, "\n".join(_lines(s, args)))
+    return 0
+
+
+def _lines(s: dict, args) -> list[str]:
     lines = [f"S4 reorientation ({s['model']} model, T = {s['T']:g} s, tol {s['tol']:g}): "
              f"{s['iterations']} iterations in {s['seconds']:.3f} s "
              f"(paper: {s['paper_iterations']} iterations, {s['paper_seconds']} s on a 2009 CPU)"]
@@ -67,8 +97,8 @@ def run(args) -> int:
                  f"{s['momentum_drift']:.1e} N m s (relative {s['momentum_drift_relative']:.1e})")
     lines.append(f"  CMG singularity measure det(CC^T)/h^6: min {s['sing_min']:.3f} at t = "
                  f"{s['sing_min_time']:.1f} s (max possible 8; 0 = singular)")
-    lines.append(f"  gyro momentum needed at T: {s['k_required']:.1f} of {s['envelope']:.1f} N m s "
-                 "available in that direction")
+    lines.append(f"  gyro momentum needed at T: {s['k_required']:.1f} of {s['envelope']:.1f} "
+                 "N m s available in that direction")
     if args.flexible:
         lines.append(f"  rigid solution flown on the flexible model misses by "
                      f"{s['rigid_solution_on_flexible_miss']:.2e}; reduced algorithm from it: "
@@ -77,6 +107,19 @@ def run(args) -> int:
         lines.append(f"  FMU replay (fmpy): error vs target {s['replay_error_vs_target']:.1e}, "
                      f"vs solver {s['replay_error_vs_solver']:.1e}")
     if args.plot:
-        lines.append("  plots: " + ", ".join(s["plots"]))
-    emit(args, s, "\n".join(lines))
+        lines.append(f"  plot: {s['plot']}")
+    return lines
+
+
+def run_write_programs(args) -> int:
+    from descent_fmus.synthesis.systems.telescope.reorientation import write_programs
+    from descent_fmus.synthesis.systems.telescope.wiring import PROGRAMS_FILE
+
+    path = args.out or PROGRAMS_FILE
+    progs = write_programs(path)
+    summary = {"programs": str(path),
+               "models": {k: {"n_nodes": v["n_nodes"], "t_end": v["t_end"]}
+                          for k, v in progs.items()}}
+    emit(args, summary, f"wrote {path}: " + ", ".join(
+        f"{k} program ({v['n_nodes']} nodes over {v['t_end']:g} s)" for k, v in progs.items()))
     return 0

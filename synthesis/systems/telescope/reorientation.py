@@ -1,20 +1,20 @@
 """S4 reorientation of the orbital telescope by the direct method (rigid and flexible models).
 
 * :func:`reorient` -- checks that the target is inside the CMG momentum envelope, then solves
-  SPEC S4 with :func:`synthesis.methods.direct_method.solve` (rigid model; or the flexible model with
-  the *reduced* algorithm: linearise the rigid model, close the miss on the flexible one);
+  the reorientation with :func:`synthesis.methods.direct_method.solve` (rigid model; or the
+  flexible model with the *reduced* algorithm: linearise the rigid model, close the miss on the
+  flexible one);
 * :func:`path_metrics` -- invariant drift, singularity measure along the path;
 * :func:`replay` -- fly the computed program through the FMUs with fmpy (ProgramController +
   Telescope / FlexibleTelescope) and compare with the target;
-* :func:`plot_reorientation` -- PNGs of u(t), w(t), lam(t), beta(t), the singularity measure and
-  the miss per iteration.
-
-``python -m synthesis.systems.telescope.reorientation --write-programs`` stores the SPEC S4 programs used as the
-defaults of the closed-loop FMUs (synthesis/scenarios/telescope_programs.json).
+* :func:`plot_reorientation` -- one PNG of u(t), w(t), lam(t), beta(t), the singularity measure
+  (the modal coordinates) and the miss per iteration;
+* :func:`write_programs` -- store the default programs that the closed-loop FMUs carry
+  (``programs.json``, :mod:`synthesis.systems.telescope.wiring`).
 
 References
 ----------
-Seed 003: S.A. Voronov, PhD thesis (2009), ch. 2, Examples 1-2; SPEC S4.
+S.A. Voronov, PhD thesis (2009), ch. 2, Examples 1-2.
 """
 from __future__ import annotations
 
@@ -25,22 +25,31 @@ from pathlib import Path
 
 import numpy as np
 
+from descent_fmus.models.telescope import (DT_INTEGRATION, INITIAL_STATE, T_DEFAULT, TARGET_LAM,
+                                           TARGET_W, TelescopeParams, envelope_radius,
+                                           inertial_momentum, make_rigid_rhs,
+                                           required_gyro_momentum, rigid_jacobian,
+                                           singularity_measure)
 from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inertial_momentum,
-                                       flexible_initial_state, make_flexible_rhs)
-from descent_fmus.models.telescope import (INITIAL_STATE, TARGET_LAM, TARGET_W, T_DEFAULT, DT_INTEGRATION,
-                              TelescopeParams, envelope_radius, inertial_momentum,
-                              make_rigid_rhs, required_gyro_momentum, rigid_jacobian,
-                              singularity_measure)
-from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, DirectResult, LinearModel, simulate,
-                                     solve)
+                                                    flexible_initial_state, make_flexible_rhs)
+from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, DirectResult,
+                                                          LinearModel, simulate, solve)
 
 __all__ = ["UnreachableTargetError", "Reorientation", "reorient", "check_reachable",
            "path_metrics", "replay", "plot_reorientation", "rigid_problem", "flexible_problem",
-           "GRID_STEP", "PAPER_SECONDS", "PAPER_ITERATIONS"]
+           "write_programs", "GRID_STEP", "TOL_RIGID", "TOL_FLEXIBLE", "MAX_ITER",
+           "PAPER_SECONDS", "PAPER_ITERATIONS", "STATE_NAMES"]
 
-#: Control grid spacing [s] ([choice]: 40 intervals over the SPEC's 40 s).
+#: Control grid spacing [s] ([choice]: 40 intervals over the 40 s of the reorientation).
 GRID_STEP = 1.0
-#: The thesis' figures for the rigid case (seed 003, Example 1).
+#: The components of the end conditions (quaternion and body rate).
+STATE_NAMES = ("lam0", "lam1", "lam2", "lam3", "w1", "w2", "w3")
+#: Default tolerances on every end condition: rigid model (Voronov 2009, Example 1) and flexible
+#: model with the reduced algorithm (Example 2).
+TOL_RIGID, TOL_FLEXIBLE = 1e-7, 1e-8
+#: Default iteration limit of the direct method.
+MAX_ITER = 20
+#: The thesis' figures for the rigid case (Voronov 2009, Example 1).
 PAPER_SECONDS = 1.7
 PAPER_ITERATIONS = 5
 
@@ -74,16 +83,34 @@ def check_reachable(x0, lam_f, w_f, p: TelescopeParams, margin: float = 1.0) -> 
 
 def rigid_problem(p: TelescopeParams, T: float, lam_f, w_f, x0=INITIAL_STATE,
                   grid_step: float = GRID_STEP, dt: float = DT_INTEGRATION) -> BoundaryProblem:
+    """The boundary problem of the rigid reorientation: from ``x0`` to (``lam_f``, ``w_f``).
+
+    Parameters
+    ----------
+    p : TelescopeParams
+    T : float
+        Reorientation time [s].
+    lam_f, w_f : sequence
+        Target quaternion [1] and body rate [rad/s].
+    x0 : sequence
+        Initial state (13).
+    grid_step : float
+        Control grid spacing [s] (rounded to a whole number of intervals over T).
+    dt : float
+        Largest RK4 sub-step [s] (an even number of sub-steps per interval).
+    """
     n = max(2, int(round(T / grid_step)))
     m = max(2, 2 * int(math.ceil(T / n / dt / 2 - 1e-9)))
-    return BoundaryProblem(rhs=make_rigid_rhs(p), x0=tuple(x0), tf=T, target_index=tuple(range(7)),
-                           target_value=tuple(lam_f) + tuple(w_f), n_u=6, intervals=n,
-                           substeps=m, jac=rigid_jacobian(p))
+    return BoundaryProblem(rhs=make_rigid_rhs(p), x0=tuple(x0), tf=T,
+                           target_index=tuple(range(7)), target_value=tuple(lam_f) + tuple(w_f),
+                           n_u=6, intervals=n, substeps=m, jac=rigid_jacobian(p))
 
 
 def flexible_problem(p: TelescopeParams, pp: PanelParams, T: float, lam_f, w_f,
                      x0=INITIAL_STATE, grid_step: float = GRID_STEP,
                      dt: float = DT_INTEGRATION) -> BoundaryProblem:
+    """The boundary problem of the flexible reorientation (panels ``pp`` undeformed at rest at
+    t = 0; the same grid and end conditions as :func:`rigid_problem`, no analytic Jacobian)."""
     rp = rigid_problem(p, T, lam_f, w_f, x0, grid_step, dt)
     return BoundaryProblem(rhs=make_flexible_rhs(p, pp), x0=flexible_initial_state(x0), tf=T,
                            target_index=rp.target_index, target_value=rp.target_value, n_u=6,
@@ -118,8 +145,7 @@ class Reorientation:
                  selected_per_iteration=[h["selected"] for h in r.history[1:]],
                  seconds=r.seconds, paper_seconds=PAPER_SECONDS,
                  paper_iterations=PAPER_ITERATIONS,
-                 final_errors=dict(zip(["lam0", "lam1", "lam2", "lam3", "w1", "w2", "w3"],
-                                       map(float, r.miss))),
+                 final_errors=dict(zip(STATE_NAMES, map(float, r.miss))),
                  u_start=[float(v) for v in r.controls[0]],
                  u_end=[float(v) for v in r.controls[-1]],
                  u_max_abs=float(np.max(np.abs(r.controls))),
@@ -154,24 +180,32 @@ def path_metrics(res: DirectResult, p: TelescopeParams, pp: PanelParams | None =
 
 def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = None,
              lam_f=TARGET_LAM, w_f=TARGET_W, params: TelescopeParams = TelescopeParams(),
-             panels: PanelParams = PanelParams(), max_iter: int = 20,
+             panels: PanelParams = PanelParams(), max_iter: int = MAX_ITER,
              grid_step: float = GRID_STEP) -> Reorientation:
-    """Solve the S4 reorientation (seed 003, Examples 1-2) by the direct method.
+    """Solve the S4 reorientation (Voronov 2009, Examples 1-2) by the direct method.
 
     Parameters
     ----------
     flexible : bool
-        Flexible telescope with the reduced algorithm (default tolerance 1e-8) instead of the
-        rigid one (default 1e-7).
+        Flexible telescope with the reduced algorithm (default tolerance ``TOL_FLEXIBLE``)
+        instead of the rigid one (default ``TOL_RIGID``).
     T : float
         Reorientation time [s].
     tol : float, optional
         Tolerance on every component of lam [1] and w [rad/s].
     lam_f, w_f : sequence
         Target quaternion and body rate [rad/s].
+    params, panels : TelescopeParams, PanelParams
+        The body and (flexible model) the panels.
+    max_iter : int
+        Iteration limit of the direct method.
+    grid_step : float
+        Control grid spacing [s].
 
     Raises
     ------
+    models.params.ParameterError
+        Invalid ``params`` or ``panels``.
     UnreachableTargetError
         The end state is outside the CMG momentum envelope (checked before iterating).
     synthesis.methods.direct_method.ConvergenceError
@@ -179,11 +213,14 @@ def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = N
     """
     if not (math.isfinite(T) and T > 0):
         raise ValueError(f"T must be > 0 [s], got {T}")
-    tol = (1e-8 if flexible else 1e-7) if tol is None else float(tol)
+    tol = (TOL_FLEXIBLE if flexible else TOL_RIGID) if tol is None else float(tol)
     if not tol > 0:
         raise ValueError(f"tol must be > 0, got {tol}")
     lam_f = tuple(float(v) for v in lam_f)
     w_f = tuple(float(v) for v in w_f)
+    params.validate()
+    if flexible:
+        panels.validate(params)
     reach = check_reachable(INITIAL_STATE, lam_f, w_f, params)
     if not flexible:
         pb = rigid_problem(params, T, lam_f, w_f, grid_step=grid_step)
@@ -205,27 +242,28 @@ def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = N
                          extra=extra)
 
 
-def replay(ro: Reorientation, fmu_dir, step: float | None = None) -> dict:
+def replay(ro: Reorientation, fmu_dir=None, step: float | None = None) -> dict:
     """Fly ``ro``'s program through the FMUs with fmpy; end errors vs the target and the solver.
 
     Uses ``ProgramController.fmu`` with the program as start values and ``Telescope.fmu`` or
-    ``FlexibleTelescope.fmu`` (first-order hold through the ``du`` inputs).
+    ``FlexibleTelescope.fmu`` (first-order hold through the ``du`` inputs) with ``ro``'s
+    parameters, from ``fmu_dir`` (default: :func:`synthesis.paths.fmu_dir`).
     """
     from descent_fmus.models.controllers.program_table import program_values
     from descent_fmus.synthesis.cosim import ClosedLoop
-    from descent_fmus.synthesis.systems.telescope.wiring import wiring
+    from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
+    from descent_fmus.synthesis.systems.telescope.wiring import PLANTS, plant_values, wiring
 
-    fmu_dir = Path(fmu_dir)
-    plant = "FlexibleTelescope" if ro.flexible else "Telescope"
-    w = wiring(plant)
+    fmu_dir = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
+    plant = PLANTS["flexible" if ro.flexible else "rigid"]
     r = ro.result
-    names = ["lam0", "lam1", "lam2", "lam3", "w1", "w2", "w3"]
+    names = list(STATE_NAMES)
     h = float(r.t_nodes[1] - r.t_nodes[0])
     step = step or h / 2.0
-    with ClosedLoop(w, fmu_dir / f"{plant}.fmu", fmu_dir / "ProgramController.fmu",
+    with ClosedLoop(wiring(plant), fmu_dir / f"{plant}.fmu", fmu_dir / "ProgramController.fmu",
                     record=names + ["sing"]) as cl:
         t0 = time.perf_counter()
-        out = cl.run(plant_values={"dt": float(r.t[1] - r.t[0])},
+        out = cl.run(plant_values=plant_values(ro.params, ro.panels, dt=float(r.t[1] - r.t[0])),
                      controller_values=program_values(ro.T, r.controls), stop_time=ro.T,
                      step=step, record=True)
         secs = time.perf_counter() - t0
@@ -234,24 +272,26 @@ def replay(ro: Reorientation, fmu_dir, step: float | None = None) -> dict:
     return dict(replay_error_vs_target=float(np.max(np.abs(final - target))),
                 replay_error_vs_solver=float(np.max(np.abs(final - r.states[-1, :7]))),
                 replay_sing_min=float(np.min(out["sing"])), replay_seconds=secs,
-                replay_step=step, final={n: float(v) for n, v in zip(names, final)})
+                replay_step=step, replay_status=out.final["status"],
+                final={n: float(v) for n, v in zip(names, final)})
 
 
-def plot_reorientation(ro: Reorientation, out_dir) -> list:
-    """Write PNGs (matplotlib Agg) of the controls, rates, quaternion, gimbal angles, singularity
-    measure (and modal coordinates) and the miss per iteration; returns the paths."""
-    import matplotlib
-    matplotlib.use("Agg")
+def plot_reorientation(ro: Reorientation, path) -> Path:
+    """Write one PNG: the controls, rates, quaternion, gimbal angles, singularity measure (and
+    modal coordinates) against time, and the miss per iteration; returns the path."""
     import matplotlib.pyplot as plt
 
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    from descent_fmus.synthesis.plotting import save_figure
+
     r, p = ro.result, ro.params
     tag = "flexible" if ro.flexible else "rigid"
     X, t = r.states, r.t
     sing = [singularity_measure(x[7:13], p) for x in X]
-    rows = 6 if ro.flexible else 5
-    fig, ax = plt.subplots(rows, 1, figsize=(8, 2.2 * rows), sharex=True)
+    rows = 7 if ro.flexible else 6
+    fig, ax = plt.subplots(rows, 1, figsize=(8, 2.2 * rows),
+                           gridspec_kw={"height_ratios": [1] * (rows - 1) + [1.2]})
+    for a in ax[1:-1]:
+        a.sharex(ax[0])
     for j in range(6):
         ax[0].plot(r.t_nodes, np.degrees(r.controls[:, j]), label=f"u{j + 1}")
     ax[0].set_ylabel("gimbal rate u [deg/s]")
@@ -270,46 +310,38 @@ def plot_reorientation(ro: Reorientation, out_dir) -> list:
         for j in range(4):
             ax[5].plot(t, X[:, 13 + j], label=f"eta{j + 1}")
         ax[5].set_ylabel("modal coord. [sqrt(kg) m]")
+    for a in ax[:-2]:
+        a.tick_params(labelbottom=False)
+    ax[-2].set_xlabel("t [s]")
+    miss = ax[-1]
+    miss.semilogy([h["iteration"] for h in r.history], [max(h["max_miss"], 1e-17)
+                                                         for h in r.history], "o-")
+    miss.axhline(ro.tol, color="r", ls="--", label=f"tol {ro.tol:g}")
+    miss.set_xlabel("iteration")
+    miss.set_ylabel("max |x_i(T) - x_i,f|")
     for a in ax:
-        a.grid(alpha=0.3)
         if a.get_legend_handles_labels()[0]:
             a.legend(fontsize=7, ncol=6, loc="best")
-    ax[-1].set_xlabel("t [s]")
     fig.suptitle(f"S4 reorientation ({tag}), direct method: {r.iterations} iterations, "
                  f"miss {r.max_miss:.1e}")
-    fig.tight_layout()
-    p1 = out_dir / f"reorient_{tag}.png"
-    fig.savefig(p1, dpi=90)
-    plt.close(fig)
-    fig, a = plt.subplots(figsize=(5, 3.5))
-    a.semilogy([h["iteration"] for h in r.history], [max(h["max_miss"], 1e-17)
-                                                      for h in r.history], "o-")
-    a.axhline(ro.tol, color="r", ls="--", label=f"tol {ro.tol:g}")
-    a.set_xlabel("iteration")
-    a.set_ylabel("max |x_i(T) - x_i,f|")
-    a.legend()
-    a.grid(alpha=0.3)
-    fig.tight_layout()
-    p2 = out_dir / f"reorient_{tag}_miss.png"
-    fig.savefig(p2, dpi=90)
-    plt.close(fig)
-    return [p1, p2]
+    return save_figure(fig, path, axes=ax, dpi=90)
 
 
-def _write_programs():
+def write_programs(path=None) -> dict:
+    """Solve the rigid and the flexible reorientation (defaults) and store their programs as the
+    ProgramController start values of the closed loops; returns them.
+
+    ``path`` defaults to :data:`synthesis.systems.telescope.wiring.PROGRAMS_FILE`.
+    """
     import json
+
     from descent_fmus.models.controllers.program_table import program_values
     from descent_fmus.synthesis.systems.telescope.wiring import PROGRAMS_FILE
+
     progs = {}
     for flex in (False, True):
         ro = reorient(flexible=flex)
         progs["flexible" if flex else "rigid"] = program_values(ro.T, ro.result.controls)
-    with open(PROGRAMS_FILE, "w", encoding="utf-8") as fh:
+    with open(path or PROGRAMS_FILE, "w", encoding="utf-8") as fh:
         json.dump(progs, fh, indent=0)
-    print(f"wrote {PROGRAMS_FILE}")
-
-
-if __name__ == "__main__":
-    import sys
-    if "--write-programs" in sys.argv:
-        _write_programs()
+    return progs

@@ -1,4 +1,5 @@
-"""The open-loop bound of S1 and the robustness study (program flown blind vs feedback)."""
+"""The S1 bound (the best open-loop program) and the robustness study (the program flown blind
+vs feedback laws, through the FMUs)."""
 from __future__ import annotations
 
 import numpy as np
@@ -6,7 +7,7 @@ import pytest
 
 from descent_fmus.models.reentry import ReentryParams, downrange
 from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.methods.open_loop import Program, fly_program
+from descent_fmus.synthesis.systems.reentry.bound import Program, fly_program
 from descent_fmus.synthesis.systems.reentry.robustness import dispersion_samples, dispersion_study, plot_study
 
 
@@ -16,7 +17,7 @@ def program(open_loop_program):
 
 
 def test_open_loop_optimum_matches_spec(program):
-    # SPEC S1: the best piecewise-constant program (120 segments, zero miss) reaches J1 ~ 8.33;
+    # the best piecewise-constant program (120 segments, zero miss) reaches J1 ~ 8.33;
     # refinement suggests 8.2-8.3 for continuous u.  Ours: 8.306 (tolerance: 8.2 .. 8.35).
     assert 8.2 <= program.J1 <= 8.35
     assert program.miss < 1.0                       # zero miss (equality constraint) [m]
@@ -36,7 +37,7 @@ def test_program_file_round_trip(program, tmp_path):
 
 
 def test_the_blind_program_misses_under_dispersion(program, fmu_dir, tmp_path):
-    # SPEC S1: the model is not exactly known, so the optimal program flown blind misses: on the
+    # the model is not exactly known, so the optimal program flown blind misses: on the
     # dispersion set (rho0 +-15 %, m +-5 %, V0 +-50 m/s, beta0 +-0.03 deg) its median miss is
     # many km although its nominal replay through the FMUs (ProgramController, step = segment)
     # reproduces the optimised flight exactly.

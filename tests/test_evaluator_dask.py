@@ -18,6 +18,7 @@ import pytest
 
 from descent_fmus.synthesis.evaluator import Evaluator
 from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.registry import get_problem
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -72,9 +73,9 @@ def test_dask_cluster_equals_local(cluster, fmu_dir):
     addr, procs = cluster
     rng = np.random.default_rng(8)
     laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(12)]
-    with Evaluator("reentry", fmu_dir) as local:
+    with Evaluator(get_problem("reentry"), fmu_dir) as local:
         F_local, _ = local.evaluate(laws)
-    with Evaluator("reentry", fmu_dir, scheduler=addr) as remote:
+    with Evaluator(get_problem("reentry"), fmu_dir, scheduler=addr) as remote:
         F_dask, _ = remote.evaluate(laws)
         assert remote.failures == 0
         # one worker dies: the scheduler hands its share to the other; nothing is lost
@@ -84,5 +85,5 @@ def test_dask_cluster_equals_local(cluster, fmu_dir):
         F_more, _ = remote.evaluate(more)
         assert remote.failures == 0
     assert np.array_equal(F_local, F_dask)
-    with Evaluator("reentry", fmu_dir) as local:
+    with Evaluator(get_problem("reentry"), fmu_dir) as local:
         assert np.array_equal(local.evaluate(more)[0], F_more)

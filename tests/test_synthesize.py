@@ -1,4 +1,6 @@
-"""Reentry synthesis: the evaluator's numbers come from the FMUs; runs resume; bad input."""
+"""A synthesis run (problem `reentry`): the evaluator's numbers come from the FMUs; runs resume;
+bad input.  Oracles: plain closed-loop flights (synthesis.systems.reentry.flight) and fmpy's own
+simulation of the exported closed-loop FMUs."""
 from __future__ import annotations
 
 import json
@@ -13,21 +15,23 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
-from descent_fmus.synthesis.evaluator import Evaluator, SchedulerError, get_problem
-from descent_fmus.synthesis.methods.ga import GAConfig
+from descent_fmus.synthesis.evaluator import Evaluator, SchedulerError
 from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.systems.reentry.flight import fly
+from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
 from descent_fmus.synthesis.synthesize import RunDirError, run_synthesis
+from descent_fmus.synthesis.systems.reentry.flight import fly
 
 ROOT = Path(__file__).resolve().parent.parent
-SMALL = GAConfig(population=16, crossovers=6, lchr=4, epoch=3, elite_trim=2)
+SMALL = dict(population=16, crossovers=6, lchr=4, epoch=3, elite_trim=2)
+REENTRY = get_problem("reentry")
 
 
 def test_evaluator_equals_an_fmpy_run(fmu_dir):
     # the evaluator is built from FMU paths alone; its objectives equal a plain closed-loop run
     laws = [NetworkOperator.basic_law(), NetworkOperator.paper_law(),
-            get_problem("reentry").basic_law()]
-    with Evaluator("reentry", fmu_dir) as ev:
+            get_problem("reentry").basic_law]
+    with Evaluator(REENTRY, fmu_dir) as ev:
         F, extras = ev.evaluate(laws + laws)         # duplicates are not simulated twice
         assert ev.simulated == 3
     for law, f in zip(laws, F):
@@ -39,7 +43,7 @@ def test_fmu_error_costs_one_candidate(fmu_dir):
     bad = NetworkOperator.basic_law()
     bad.psi[0, 4] = 99            # bypasses validation: the FMU itself must reject it
     good = NetworkOperator.basic_law()
-    with Evaluator("reentry", fmu_dir) as ev:
+    with Evaluator(REENTRY, fmu_dir) as ev:
         F, extras = ev.evaluate([bad, good])
         assert ev.failures == 1
     prob = get_problem("reentry")
@@ -51,7 +55,7 @@ def test_fmu_error_costs_one_candidate(fmu_dir):
 def test_local_pool_equals_in_process(fmu_dir):
     rng = np.random.default_rng(3)
     laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
-    with Evaluator("reentry", fmu_dir) as ev1, Evaluator("reentry", fmu_dir, workers=2) as ev2:
+    with Evaluator(REENTRY, fmu_dir) as ev1, Evaluator(REENTRY, fmu_dir, workers=2) as ev2:
         assert np.array_equal(ev1.evaluate(laws)[0], ev2.evaluate(laws)[0])
 
 
@@ -60,9 +64,9 @@ def test_local_worker_death_costs_no_candidate(fmu_dir):
     # pool, a fresh pool is started and the candidates are retried -- same numbers, no penalty
     rng = np.random.default_rng(5)
     laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
-    with Evaluator("reentry", fmu_dir) as ev1:
+    with Evaluator(REENTRY, fmu_dir) as ev1:
         F_ref = ev1.evaluate(laws)[0]
-    with Evaluator("reentry", fmu_dir, workers=2) as ev:
+    with Evaluator(REENTRY, fmu_dir, workers=2) as ev:
         ev.evaluate([NetworkOperator.basic_law()])          # start the workers
         old_pool = ev._pool
         for proc in list(ev._pool._processes.values()):
@@ -74,10 +78,10 @@ def test_local_worker_death_costs_no_candidate(fmu_dir):
     assert np.array_equal(F, F_ref)
 
 
-def _run(out, fmu_dir, generations=6, **kw):
-    kw.setdefault("bound", False)
-    return run_synthesis("reentry", out, fmu_dir, SMALL, generations, seed=11, progress=False,
-                         **kw)
+def _run(out, fmu_dir, generations=6, seed=11, **kw):
+    kw.setdefault("reference", False)
+    return run_synthesis(REENTRY, out, fmu_dir, Budget(**SMALL, generations=generations,
+                                                       seed=seed), progress=False, **kw)
 
 
 def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):
@@ -97,7 +101,7 @@ def test_killed_cli_run_resumes(fmu_dir, tmp_path):
     # finishes with the same Pareto set as an uninterrupted run of the same seed
     args = [sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize", "reentry", "--population", "16",
             "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
-            "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-bound",
+            "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-reference",
             "--fmus", str(fmu_dir)]
     subprocess.run(args + ["--out", str(tmp_path / "ref")], check=True, cwd=ROOT,
                    capture_output=True)
@@ -132,20 +136,20 @@ def test_exported_law_reproduces_its_pareto_row(fmu_dir, tmp_path):
     rows = s["pareto"]
     assert rows and (tmp_path / "run" / "pareto.png").stat().st_size > 1000
     for r in rows[:3]:
-        res = simulate_fmu(r["closed_loop_fmu"], output=["L", "load_max", "landed"])
+        res = simulate_fmu(r["closed_loop_fmu"], output=["L", "load_max", "status"])
         last = res[-1]
         assert last["load_max"] == pytest.approx(r["J1"], rel=1e-12)
-        if last["landed"]:
+        if last["status"] == 1:
             assert abs(last["L"] - 1_400_000.0) == pytest.approx(r["J2"], rel=1e-9, abs=1e-6)
         law = NetworkOperator.load(Path(r["closed_loop_fmu"]).parent / "law.json")
         assert law.formula(6) == r["formula"]
 
 
 def test_bad_input(fmu_dir, tmp_path):
-    with pytest.raises(KeyError, match="unknown synthesis problem 'mars-orbit'"):
+    with pytest.raises(UnknownProblemError, match="unknown synthesis problem 'mars-orbit'"):
         get_problem("mars-orbit")
     with pytest.raises(SchedulerError, match="cannot reach the Dask scheduler"):
-        Evaluator("reentry", fmu_dir, scheduler="tcp://127.0.0.1:9", connect_timeout=1.0)
+        Evaluator(REENTRY, fmu_dir, scheduler="tcp://127.0.0.1:9", connect_timeout=1.0)
     d = tmp_path / "other"
     d.mkdir()
     (d / "notes.txt").write_text("keep me")
@@ -156,8 +160,7 @@ def test_bad_input(fmu_dir, tmp_path):
     with pytest.raises(RunDirError, match="already holds a run"):
         _run(tmp_path / "a", fmu_dir, generations=1)
     with pytest.raises(RunDirError, match="different run"):
-        run_synthesis("reentry", tmp_path / "a", fmu_dir, SMALL, 2, seed=12, progress=False,
-                      resume=True, bound=False)
+        _run(tmp_path / "a", fmu_dir, generations=2, seed=12, resume=True)
     with pytest.raises(RunDirError, match="no run to resume"):
         _run(tmp_path / "nothing", fmu_dir, resume=True)
 
@@ -170,12 +173,12 @@ def test_cli_messages(fmu_dir, tmp_path):
     assert r.returncode == 2 and "unknown synthesis problem 'nowhere'" in r.stderr
     bad = tmp_path / "bad.json"
     bad.write_text('{"psi": [[0, 1], [0, 0]], "nx": 1, "q": [], "outputs": [5]}')
-    r = cli("fly", "reentry", "--law", str(bad), "--fmus", str(fmu_dir))
+    r = cli("reentry", "fly", "--law", str(bad), "--fmus", str(fmu_dir))
     assert r.returncode == 2 and "output 1 names node 5, outside 1..2" in r.stderr
-    r = cli("fly", "reentry", "--fmus", str(tmp_path / "nowhere"))
+    r = cli("reentry", "fly", "--fmus", str(tmp_path / "nowhere"))
     assert r.returncode == 2 and "FMU not found" in r.stderr and "build_fmus.py" in r.stderr
     assert "Traceback" not in r.stderr
-    r = cli("fly", "reentry", "--fmus", str(fmu_dir), "--plot", str(tmp_path / "no" / "x.png"))
+    r = cli("reentry", "fly", "--fmus", str(fmu_dir), "--plot", str(tmp_path / "no" / "x.png"))
     assert r.returncode == 2 and "No such file or directory" in r.stderr
     r = cli("synthesize", "reentry", "--scheduler", "tcp://127.0.0.1:9", "--out",
             str(tmp_path / "y"), "--fmus", str(fmu_dir), "--generations", "1")

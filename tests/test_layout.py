@@ -1,0 +1,147 @@
+"""The layout keeps its promises: one home per system, no import cycles, no work at import time,
+library hygiene.  Oracles: the package's own source files (read as text and syntax trees) and a
+fresh interpreter's audit events."""
+from __future__ import annotations
+
+import ast
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+try:
+    import tomllib
+except ModuleNotFoundError:          # Python 3.10
+    import tomli as tomllib
+
+ROOT = Path(__file__).resolve().parent.parent
+PACKAGES = {"descent_fmus.models": ROOT / "models", "descent_fmus.synthesis": ROOT / "synthesis"}
+
+
+def _modules():
+    """{module name: path} of every module of the two packages."""
+    out = {}
+    for pkg, base in PACKAGES.items():
+        for path in base.rglob("*.py"):
+            rel = path.relative_to(base).with_suffix("")
+            parts = [p for p in rel.parts if p != "__init__"]
+            out[".".join([pkg, *parts])] = path
+    return out
+
+
+def _imports(path: Path, name: str, modules) -> set:
+    """descent_fmus modules imported anywhere in ``path`` (module level and inside functions)."""
+    found = set()
+    pkg = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    for node in ast.walk(ast.parse(path.read_text())):
+        if isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                parent = pkg.split(".")
+                base = ".".join(parent[:len(parent) - node.level + 1] + ([base] if base else []))
+            for alias in node.names:
+                full = f"{base}.{alias.name}"
+                found.add(full if full in modules else base)
+        elif isinstance(node, ast.Import):
+            found.update(a.name for a in node.names)
+    return {m for m in found if m in modules and m != name}
+
+
+def test_no_import_cycle():
+    modules = _modules()
+    graph = {m: _imports(p, m, modules) for m, p in modules.items()}
+    # a package importing its own sub-modules (its SYSTEM record) is not a cycle to report
+    graph = {m: {d for d in deps if not d.startswith(m + ".")} for m, deps in graph.items()}
+    state, stack = {}, []
+
+    def visit(m):
+        state[m] = 1
+        stack.append(m)
+        for d in sorted(graph[m]):
+            if state.get(d) == 1:
+                raise AssertionError("import cycle: " + " -> ".join(stack[stack.index(d):] + [d]))
+            if d not in state:
+                visit(d)
+        stack.pop()
+        state[m] = 2
+
+    for m in sorted(graph):
+        if m not in state:
+            visit(m)
+
+
+def test_models_depend_on_nothing_above_them():
+    for name, path in _modules().items():
+        if name.startswith("descent_fmus.models"):
+            assert "descent_fmus.synthesis" not in path.read_text(), path
+
+
+AUDIT = r"""
+import sys
+opened = []
+def hook(event, args):
+    if event == "open" and isinstance(args[0], str):
+        opened.append(args[0])
+sys.addaudithook(hook)
+import descent_fmus.synthesis
+from descent_fmus.synthesis.cli import build_parser
+build_parser()                               # imports every system package and its commands
+from descent_fmus.synthesis.registry import all_systems, problem_names
+all_systems(); problem_names()
+data = [p for p in opened if p.endswith((".json", ".toml", ".csv", ".fmu", ".npz", ".png"))]
+print("DATA", data)
+print("SOLVERS", sorted(m for m in ("scipy.integrate", "scipy.optimize", "matplotlib.pyplot")
+                        if m in sys.modules))
+"""
+
+
+def test_importing_the_package_reads_no_data_and_runs_no_solver():
+    # every system registered, every command parser built: still no data file read and no
+    # solver module imported (the systems keep expensive work in functions called on demand)
+    r = subprocess.run([sys.executable, "-c", AUDIT], capture_output=True, text=True, cwd=ROOT)
+    assert r.returncode == 0, r.stderr
+    lines = dict(line.split(" ", 1) for line in r.stdout.splitlines())
+    assert lines["DATA"] == "[]", lines["DATA"]
+    assert lines["SOLVERS"] == "[]", lines["SOLVERS"]
+
+
+def test_every_package_is_installed():
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])
+    on_disk = {n for n, p in _modules().items() if p.name == "__init__.py"}
+    assert on_disk == listed, f"pyproject.toml lists {sorted(listed ^ on_disk)} wrongly"
+
+
+def test_every_system_has_one_home():
+    from descent_fmus.synthesis.registry import SYSTEMS, get_system
+    assert sorted(p.name for p in (ROOT / "synthesis/systems").iterdir()
+                  if (p / "__init__.py").is_file()) == sorted(SYSTEMS)
+    for stem in SYSTEMS:
+        system = get_system(stem)
+        assert system.stem == stem
+        assert (ROOT / "models" / f"{stem}.py").is_file()
+        assert list((ROOT / "tests").glob(f"test_{stem}_*.py")), stem
+        for spec in system.fmus:
+            module = spec.split(":")[0]
+            assert (ROOT / "models" / (module.replace(".", "/") + ".py")).is_file(), spec
+
+
+OUTSIDE = re.compile(r"SPEC\b|DESIGN\.md|\bissue \d|\b[Ss]eed 00\d|shared/")
+
+
+@pytest.mark.parametrize("folder", ["models", "synthesis", "tests", "benchmarks", "docs"])
+def test_no_pointer_outside_the_repository(folder):
+    bad = []
+    for path in (ROOT / folder).rglob("*.py"):
+        for k, line in enumerate(path.read_text().splitlines(), 1):
+            if OUTSIDE.search(line) and "OUTSIDE = re.compile" not in line:
+                bad.append(f"{path.relative_to(ROOT)}:{k}: {line.strip()}")
+    assert not bad, "\n".join(bad)
+
+
+def test_library_code_never_chooses_the_matplotlib_backend():
+    for folder in ("models", "synthesis"):
+        for path in (ROOT / folder).rglob("*.py"):
+            assert "matplotlib.use(" not in path.read_text(), path

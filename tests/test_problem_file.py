@@ -1,0 +1,151 @@
+"""Synthesis problems from TOML files, for plant FMUs the package does not register.
+
+Oracles: the registered ``reentry`` problem (a problem file describing it must give the same
+Pareto set for the same seed), fmpy's own simulation of the exported closed-loop FMU, and the
+plant's physics (a hopper that reaches the ground has h <= 0).
+"""
+from __future__ import annotations
+
+import csv
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import pytest
+
+from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.problem_file import ProblemFileError, load_problem_file
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.synthesize import run_synthesis
+
+ROOT = Path(__file__).resolve().parent.parent
+TUTORIAL = ROOT / "docs" / "tutorial"
+SMALL = dict(population=16, generations=3, crossovers=6, lchr=4, epoch=2)
+
+
+@pytest.fixture(scope="module")
+def hopper_dir(tmp_path_factory):
+    """The tutorial's plant built by pythonfmu, as a user would, beside a copy of its problem."""
+    d = tmp_path_factory.mktemp("hopper")
+    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f",
+                    str(TUTORIAL / "hopper.py"), "-d", str(d)], check=True,
+                   capture_output=True)
+    shutil.copy(TUTORIAL / "hopper.toml", d / "hopper.toml")
+    return d
+
+
+def _edit(src: Path, dst: Path, old: str, new: str) -> Path:
+    text = src.read_text()
+    assert old in text, old
+    dst.write_text(text.replace(old, new, 1))
+    return dst
+
+
+def test_tutorial_problem_runs_through_the_fmus(hopper_dir, fmu_dir, tmp_path):
+    from fmpy import simulate_fmu
+    problem = load_problem_file(hopper_dir / "hopper.toml", fmu_dir=fmu_dir)
+    assert problem.objective_names == ("v_touchdown", "fuel")
+    assert len(problem.initial_states) == 6                     # samples = 6 (LHS box)
+    out = tmp_path / "run"
+    s = run_synthesis(problem, out, fmu_dir, Budget(**SMALL, seed=1), progress=False)
+    assert s["failures"] == 0 and s["pareto_size"] >= 1
+    rows = list(csv.DictReader(open(out / "pareto.csv")))
+    best = min(float(r["v_touchdown"]) for r in rows)
+    # the basic law (hover + PD) never touches down from some starts (penalty 100 m/s); the
+    # synthesis finds laws that land every start: a worst touchdown speed below 5 m/s
+    assert s["basic_law"]["v_touchdown"] > 50.0 and best < 5.0
+    # the exported closed loop runs in fmpy on its own and lands (h reaches 0 and freezes)
+    law0 = out / "laws" / "0"
+    res = simulate_fmu(str(law0 / "hopperClosedLoop.fmu"), stop_time=30.0,
+                       start_values={"h0": 10.0, "v0": -1.0}, output=["h", "v"])
+    assert res["h"][-1] <= 0.0 and abs(res["v"][-1]) < 5.0
+
+
+def test_reentry_as_a_file_gives_the_registered_pareto_set(fmu_dir, tmp_path):
+    # Oracle: the registered Python problem `reentry`; same seed => the same Pareto set.
+    file_problem = load_problem_file(ROOT / "synthesis/systems/reentry/reentry.toml",
+                                     fmu_dir=fmu_dir)
+    budget = Budget(**SMALL, seed=2)
+    a = run_synthesis(get_problem("reentry"), tmp_path / "a", fmu_dir, budget, progress=False,
+                      export=False, reference=False)
+    b = run_synthesis(file_problem, tmp_path / "b", fmu_dir, budget, progress=False,
+                      export=False, reference=False)
+    key = lambda r: (r["J1"], r["J2"], r["formula"])  # noqa: E731
+    assert [key(r) for r in a["pareto"]] == [key(r) for r in b["pareto"]]
+    assert a["basic_law"] == b["basic_law"]
+
+
+BAD = [
+    # (old text, new text, expected words of the message)
+    ('fmu = "Hopper.fmu"', 'fmu = "Missing.fmu"', ["plant.fmu", "not found"]),
+    ('{ output = "v" }', '{ output = "F_max" }', ["controller.inputs[2].output",
+                                                  "not an output"]),
+    ('input = "throttle"', 'input = "thrust"', ["controller.outputs[1].input",
+                                                "not an input"]),
+    ("min = 0.0, max = 1.0", "min = 1.0, max = 0.0", ["controller.outputs[1]", "min = 1.0 > max"]),
+    ("h0 = [8.0, 12.0]", "h00 = [8.0, 12.0]", ["initial_states.box.h00", "no parameter"]),
+    ('flight = "abs(final(v))"', 'flight = "abs(final(vv))"', ["objectives[1].flight", "vv"]),
+    ('flight = "abs(final(v))"', 'flight = "__import__(\'os\').system(\'ls\')"',
+     ["objectives[1].flight", "allowed functions"]),
+    ('flight = "abs(final(v))"', 'flight = "final(v).real"',
+     ["objectives[1].flight", "not allowed"]),
+    ("box = { h0 = [8.0, 12.0], v0 = [-2.0, 0.0] }\nsamples = 6\nsampler = \"lhs\"\nseed = 3",
+     "states = []", ["initial_states.states", "empty"]),
+    ("step = 0.1", "step = -0.1", ["simulation.step", "> 0"]),
+    ("over_states = \"max\"", "over_states = \"worst\"", ["objectives[1].over_states"]),
+    ("[ga]", "[ga]\npopulation_size = 3", ["ga.population_size", "unknown key"]),
+]
+
+
+@pytest.mark.parametrize("old,new,words", BAD, ids=[b[2][0] for b in BAD])
+def test_bad_problem_files_are_one_line_errors(hopper_dir, fmu_dir, tmp_path, old, new, words):
+    shutil.copy(hopper_dir / "Hopper.fmu", tmp_path / "Hopper.fmu")
+    bad = _edit(hopper_dir / "hopper.toml", tmp_path / "bad.toml", old, new)
+    with pytest.raises(ProblemFileError) as exc:
+        load_problem_file(bad, fmu_dir=fmu_dir)
+    msg = str(exc.value)
+    assert "\n" not in msg and str(bad) in msg
+    for w in words:
+        assert w in msg, msg
+    # the command line: exit 2, one line naming the file, nothing written
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize",
+                        "--problem", str(bad), "--out", str(out), "--fmus", str(fmu_dir)],
+                       capture_output=True, text=True)
+    assert r.returncode == 2 and str(bad) in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def _rewrite_md(src: Path, dst: Path, old: str, new: str) -> Path:
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(dst, "w") as zout:
+        for item in zin.infolist():
+            data = zin.read(item.filename)
+            if item.filename == "modelDescription.xml":
+                text = data.decode()
+                assert old in text
+                data = text.replace(old, new, 1).encode()
+            zout.writestr(item, data)
+    return dst
+
+
+@pytest.mark.parametrize("old,new,words", [
+    ('fmiVersion="2.0"', 'fmiVersion="1.0"', ["FMI 1.0", "needs FMI 2.0"]),
+    ("<CoSimulation", "<ModelExchange", ["not a co-simulation FMU"]),
+], ids=["fmi1", "model-exchange"])
+def test_wrong_kind_of_fmu(hopper_dir, fmu_dir, tmp_path, old, new, words):
+    _rewrite_md(hopper_dir / "Hopper.fmu", tmp_path / "Hopper.fmu", old, new)
+    shutil.copy(hopper_dir / "hopper.toml", tmp_path / "hopper.toml")
+    with pytest.raises(ProblemFileError) as exc:
+        load_problem_file(tmp_path / "hopper.toml", fmu_dir=fmu_dir)
+    assert "plant.fmu" in str(exc.value)
+    for w in words:
+        assert w in str(exc.value), str(exc.value)
+
+
+def test_not_toml(tmp_path):
+    bad = tmp_path / "x.toml"
+    bad.write_text("[problem\nname = 1")
+    with pytest.raises(ProblemFileError, match="not valid TOML"):
+        load_problem_file(bad)
