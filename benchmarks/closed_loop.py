@@ -1,7 +1,7 @@
 """Benchmark: one closed-loop reentry flight through the FMUs vs the same code in-process.
 
 Prints the median wall time of a flight (FMU instances reused: reset + new start values per run)
-and the ratio to the in-process run of the same functions (models.reentry.FlightIntegrator and
+and the ratio to the in-process run of the same functions (models.reentry.ReentryIntegrator and
 the network-operator evaluation, no FMI).  Goal: <= 20 ms per flight, ratio <= 2.
 
     python benchmarks/closed_loop.py [--repeat N] [--fmus DIR]
