@@ -1,10 +1,12 @@
 #!/usr/bin/env python
-"""Make the S4 figures of the docs: the rigid and the flexible reorientation by the direct method.
+"""Make the S4 figures of the docs: the reorientations and the route by the direct method.
 
 * ``docs/telescope_rigid.png`` -- u(t), omega(t), lambda(t), beta(t), the CMG singularity measure
   and the miss per iteration of the rigid reorientation (Voronov 2009, Example 1);
 * ``docs/telescope_flexible.png`` -- the same with the modal coordinates for the flexible
-  telescope and the reduced algorithm (Example 2).
+  telescope and the reduced algorithm (Example 2);
+* ``docs/telescope_route.png`` -- the route of Example 3 traced by halving: gimbal rates with the
+  stage joints, deviation from the route against eps, the route.
 
     python docs/make_telescope_figures.py [--out DIR]
 """
@@ -15,6 +17,7 @@ import os
 from pathlib import Path
 
 from descent_fmus.synthesis.systems.telescope.reorientation import plot_reorientation, reorient
+from descent_fmus.synthesis.systems.telescope.route import plot_route, trace
 
 DOCS = Path(__file__).resolve().parent
 
@@ -29,6 +32,7 @@ def main(argv=None) -> int:
         path = plot_reorientation(reorient(flexible=model == "flexible"),
                                   args.out / f"telescope_{model}.png")
         print(f"wrote {path}")
+    print(f"wrote {plot_route(trace(), args.out / 'telescope_route.png')}")
     return 0
 
 

@@ -1,16 +1,19 @@
-"""S4 -- orbital telescope as a rigid gyrostat with six control-moment gyros (gyrodynes).
+"""S4 -- orbital telescope as a rigid gyrostat with n control-moment gyros (gyrodynes; six).
 
-State ``x = (lam0, lam1, lam2, lam3, w1, w2, w3, beta1, ..., beta6)`` (13): the quaternion
+State ``x = (lam0, lam1, lam2, lam3, w1, w2, w3, beta1, ..., beta_n)`` (7 + n): the quaternion
 ``lam`` [1] (body -> inertial, scalar first), the body rate ``w`` [rad/s] in the body axes and the
-gimbal angles ``beta`` [rad]; control ``u`` (6): the gimbal rates [rad/s].
+gimbal angles ``beta`` [rad]; control ``u`` (n): the gimbal rates [rad/s].
 
     I dw/dt + w x (I w + k) + dk/dt = 0,    dlam/dt = 1/2 A(w) lam,    dbeta/dt = u
     k     = h sum_j (a_j cos beta_j + b_j sin beta_j)                  [N m s]
     dk/dt = h sum_j (-a_j sin beta_j + b_j cos beta_j) u_j = C(beta) u [N m]
 
-Gimbal axes ``g_j`` along the six non-parallel face normals of a regular dodecahedron,
-``a_j = normalize(g_j x e_y)`` (rotor axis at beta_j = 0, [choice], models/README.md) and
-``b_j = g_j x a_j``.  First integrals: ``|lam| = 1`` and the inertial angular momentum
+By default (Voronov 2009, Example 1) six gimbal axes ``g_j`` along the six non-parallel face
+normals of a regular dodecahedron, ``a_j = normalize(g_j x e_y)`` (rotor axis at beta_j = 0,
+[choice], models/README.md) and ``b_j = g_j x a_j``.  The gimbal axes (hence the number of
+gyrodynes) and the reference direction of the rotor axes are parameters:
+:func:`pyramid_axes` and :func:`octahedron_axes` give the other clusters of the thesis
+(Example 3).  First integrals: ``|lam| = 1`` and the inertial angular momentum
 ``K = R(lam) (I w + k)``.
 
 This module holds the only definition of these equations (:func:`make_rigid_rhs`); the
@@ -22,7 +25,7 @@ telescope plants (first-order hold of the gimbal rates, ``models/rk4_input.py``)
 
 References
 ----------
-S.A. Voronov, PhD thesis (2009), ch. 2, Example 1, eqs. (8)-(9).
+S.A. Voronov, PhD thesis (2009), ch. 2, Example 1, eqs. (8)-(9); ch. 3, Example 3.
 """
 from __future__ import annotations
 
@@ -39,6 +42,7 @@ from descent_fmus.models.params import (ParameterError, Params, description_of, 
 from descent_fmus.models.rk4_input import propagate_linear_input
 
 __all__ = ["PHI", "GIMBAL_AXES", "AXES", "TelescopeParams", "gimbal_vectors", "gyro_sums",
+           "pyramid_axes", "octahedron_axes", "N_GYROS_MAX", "sing_max",
            "quaternion_rate", "make_rigid_rhs", "rigid_jacobian", "quat_to_matrix",
            "body_momentum", "inertial_momentum", "gyro_momentum", "singularity_measure",
            "envelope_radius", "required_gyro_momentum", "INITIAL_STATE", "TARGET_LAM",
@@ -49,6 +53,8 @@ PHI = (1.0 + math.sqrt(5.0)) / 2.0
 #: Gimbal axes (unnormalised): six non-parallel face normals of a regular dodecahedron.
 GIMBAL_AXES = ((0.0, 1.0, PHI), (0.0, 1.0, -PHI), (1.0, PHI, 0.0), (-1.0, PHI, 0.0),
                (PHI, 0.0, 1.0), (PHI, 0.0, -1.0))
+#: Gyrodynes an FMU can carry (its inputs u[1..6], outputs beta1..beta6).
+N_GYROS_MAX = 6
 #: Default RK4 sub-step inside the FMU [s]; the direct method uses the same sub-steps.
 DT_INTEGRATION = 0.025
 #: Reorientation time T of Voronov (2009), Example 1 [s].
@@ -82,15 +88,50 @@ def _unit(a):
 AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
 
 
-def gimbal_vectors(rotor_ref="y"):
+def pyramid_axes(n: int, alpha: float, azimuth0: float = 0.0) -> tuple:
+    """Gimbal axes of a pyramid cluster, flattened (3 entries per gyrodyne).
+
+    Gyrodyne ``j`` (0-based) at azimuth ``psi_j = azimuth0 + 2 pi j / n`` about the pyramid's
+    height ``e_z``; its gimbal axis makes the angle ``alpha`` [rad] with the height:
+    ``g_j = (sin alpha cos psi_j, sin alpha sin psi_j, cos alpha)``.
+    """
+    out = []
+    for j in range(n):
+        psi = azimuth0 + 2.0 * math.pi * j / n
+        out += [math.sin(alpha) * math.cos(psi), math.sin(alpha) * math.sin(psi), math.cos(alpha)]
+    return tuple(out)
+
+
+def octahedron_axes() -> tuple:
+    """Four gimbal axes normal to four pairwise non-parallel faces of a regular octahedron,
+    flattened: ``(+-1, +-1, 1)/sqrt(3)`` -- the classical four-gyrodyne pyramid, whose gimbal
+    axes make ``acos(1/sqrt(3))`` = 54.74 deg with its height ``e_z``."""
+    r = 1.0 / math.sqrt(3.0)
+    return tuple(v * r for g in ((1, 1, 1), (-1, 1, 1), (-1, -1, 1), (1, -1, 1)) for v in g)
+
+
+def _axes_of(flat) -> list:
+    return [tuple(float(v) for v in flat[3 * j:3 * j + 3]) for j in range(len(flat) // 3)]
+
+
+def sing_max(n: int) -> float:
+    """Largest value of the singularity measure det(C C^T)/h^6 for n gyrodynes: (n/3)^3
+    (trace C C^T = n h^2; 8 for six)."""
+    return (n / 3.0) ** 3
+
+
+def gimbal_vectors(rotor_ref="y", axes=GIMBAL_AXES):
     """Unit gimbal axes ``g_j`` and the rotor axes ``a_j`` (beta=0), ``b_j = g_j x a_j``.
 
     ``rotor_ref`` is the reference direction ``e_ref`` of ``a_j = normalize(g_j x e_ref)``: a
     body axis by name (``"y"``, the default [choice], models/README.md; ``"z"`` gives a harder
-    variant) or a 3-vector in body axes.
+    variant) or a 3-vector in body axes.  ``axes``: the gimbal axes, as 3-vectors or flattened
+    (default: the dodecahedron cluster).
     """
     e = AXES[rotor_ref] if isinstance(rotor_ref, str) else tuple(rotor_ref)
-    g = [_unit(v) for v in GIMBAL_AXES]
+    if axes and not isinstance(axes[0], (tuple, list)):
+        axes = _axes_of(axes)
+    g = [_unit(v) for v in axes]
     a = [_unit(_cross(gj, e)) for gj in g]
     b = [_cross(gj, aj) for gj, aj in zip(g, a)]
     return g, a, b
@@ -101,7 +142,8 @@ class TelescopeParams(Params):
     """Parameters of the rigid S4 gyrostat (SI units); defaults = Voronov (2009), Example 1.
 
     ``rotor_ref`` may also be given as a body axis name (``"x"``, ``"y"``, ``"z"``); it is
-    stored as the 3-vector.
+    stored as the 3-vector.  ``gimbal_axes`` holds 3 entries per gyrodyne (their number is
+    :attr:`n_gyros`); they need not be unit vectors.
     """
 
     inertia: tuple = param((25000.0, -100.0, -100.0, -100.0, 10000.0, 100.0, -100.0, 100.0,
@@ -109,6 +151,9 @@ class TelescopeParams(Params):
     h: float = param(250.0, "N.m.s", "rotor angular momentum of each gyrodyne", positive=True)
     rotor_ref: tuple = param(AXES["y"], "1", "reference direction e_ref of the rotor axes at "
                              "beta = 0, a_j = normalize(g_j x e_ref), body axes [choice]")
+    gimbal_axes: tuple = param(tuple(v for g in GIMBAL_AXES for v in g), "1",
+                               "gimbal axes g_j in body axes, 3 entries per gyrodyne (default: "
+                               "normals of six non-parallel faces of a regular dodecahedron)")
 
     def __post_init__(self):
         if isinstance(self.rotor_ref, str) and self.rotor_ref in AXES:
@@ -126,13 +171,21 @@ class TelescopeParams(Params):
         e = sorted(ev)
         if e[0] + e[1] < e[2] * (1 - 1e-12):
             raise ParameterError(f"inertia tensor violates the triangle inequality: {ev}")
+        n3 = len(self.gimbal_axes)
+        if n3 < 3 or n3 % 3:
+            raise ParameterError(f"parameter gimbal_axes needs 3 entries per gyrodyne (at least "
+                                 f"one), got {n3}")
+        for j, g in enumerate(_axes_of(self.gimbal_axes)):
+            if math.sqrt(g[0] ** 2 + g[1] ** 2 + g[2] ** 2) <= 1e-12:
+                raise ParameterError(f"gimbal axis {j + 1} (gimbal_axes[{3 * j + 1}..{3 * j + 3}])"
+                                     " is zero")
         if len(self.rotor_ref) != 3:
             raise ParameterError(f"parameter rotor_ref needs 3 entries (a direction in body "
                                  f"axes) or an axis name 'x', 'y', 'z', got {self.rotor_ref!r}")
         e_ref = np.array(self.rotor_ref, float)
         n = float(np.linalg.norm(e_ref))
         if n == 0.0 or any(np.linalg.norm(np.cross(_unit(g), e_ref)) <= 1e-9 * n
-                           for g in GIMBAL_AXES):
+                           for g in _axes_of(self.gimbal_axes)):
             raise ParameterError(f"parameter rotor_ref {self.rotor_ref} is zero or along a "
                                  "gimbal axis: it defines no rotor direction")
 
@@ -140,14 +193,24 @@ class TelescopeParams(Params):
     def I(self) -> np.ndarray:  # noqa: E743
         return np.array(self.inertia, dtype=float).reshape(3, 3)
 
+    @property
+    def n_gyros(self) -> int:
+        """Number of gyrodynes (controls)."""
+        return len(self.gimbal_axes) // 3
+
+    @property
+    def n_states(self) -> int:
+        """Rigid state size 7 + n_gyros."""
+        return 7 + self.n_gyros
+
     def gyro_matrices(self):
-        """(h a_j, h b_j) as (6, 3) arrays [N m s]."""
-        _, a, b = gimbal_vectors(self.rotor_ref)
+        """(h a_j, h b_j) as (n, 3) arrays [N m s]."""
+        _, a, b = gimbal_vectors(self.rotor_ref, self.gimbal_axes)
         return self.h * np.array(a), self.h * np.array(b)
 
 
 def gyro_sums(x, u, gy, cos=math.cos, sin=math.sin):
-    """Rotor momentum k and its rate k-dot of the six gyrodynes, on plain floats.
+    """Rotor momentum k and its rate k-dot of the gyrodynes, on plain floats.
 
     ``x[7:13]`` are the gimbal angles beta_j [rad], ``u`` the gimbal rates [rad/s], ``gy`` the
     pairs (h a_j, h b_j) [N m s]: k = sum h (a_j cos b_j + b_j sin b_j),
@@ -178,7 +241,8 @@ def quaternion_rate(l0, l1, l2, l3, w1, w2, w3):
 
 
 def make_rigid_rhs(p: TelescopeParams):
-    """Return ``f(x, u)``: the S4 rigid gyrostat right-hand side on tuples (13 states, 6 controls).
+    """Return ``f(x, u)``: the S4 rigid gyrostat right-hand side on tuples (7 + n states, n
+    controls; ``u`` may be longer: the first n entries are used).
 
     The returned closure works on plain floats (several times faster than NumPy for a
     13-element state, ``models/integrators.py``).
@@ -191,6 +255,7 @@ def make_rigid_rhs(p: TelescopeParams):
     HA = [tuple(float(v) for v in r) for r in ha]
     HB = [tuple(float(v) for v in r) for r in hb]
     gy = list(zip(HA, HB))
+    n = len(gy)
 
     def rhs(x, u):
         l0, l1, l2, l3, w1, w2, w3 = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
@@ -204,8 +269,7 @@ def make_rigid_rhs(p: TelescopeParams):
         return quaternion_rate(l0, l1, l2, l3, w1, w2, w3) + (
                 j11 * r1 + j12 * r2 + j13 * r3,
                 j21 * r1 + j22 * r2 + j23 * r3,
-                j31 * r1 + j32 * r2 + j33 * r3,
-                u[0], u[1], u[2], u[3], u[4], u[5])
+                j31 * r1 + j32 * r2 + j33 * r3) + tuple(u[:n])
     return rhs
 
 
@@ -220,26 +284,29 @@ def _skew(v):
 
 
 def rigid_jacobian(p: TelescopeParams):
-    """Return ``jac(X, U) -> (A, B)``: df/dx (n, 13, 13) and df/du (n, 13, 6) of the rigid model.
+    """Return ``jac(X, U) -> (A, B)``: df/dx (n, 7+m, 7+m) and df/du (n, 7+m, m) of the rigid
+    model with m gyrodynes (13 and 6 by default).
 
-    ``X`` (n, 13) and ``U`` (n, 6) are batches of states and controls (vectorised over time).
+    ``X`` (n, 7+m) and ``U`` (n, m) are batches of states and controls (vectorised over time).
     """
     p.validate()
     I = p.I
     Ii = np.linalg.inv(I)
     ha, hb = p.gyro_matrices()
+    m = p.n_gyros
+    nx = 7 + m
 
     def jac(X, U):
         X = np.atleast_2d(np.asarray(X, float))
-        U = np.atleast_2d(np.asarray(U, float))
+        U = np.atleast_2d(np.asarray(U, float))[:, :m]
         n = X.shape[0]
-        lam, w, beta = X[:, :4], X[:, 4:7], X[:, 7:13]
+        lam, w, beta = X[:, :4], X[:, 4:7], X[:, 7:nx]
         c, s = np.cos(beta)[..., None], np.sin(beta)[..., None]
         Cj = -s * ha + c * hb          # (n, 6, 3) dk/dbeta_j
         kj = c * ha + s * hb           # (n, 6, 3) h (a_j cos + b_j sin)
         k = kj.sum(axis=1)
         L = w @ I.T + k
-        A = np.zeros((n, 13, 13))
+        A = np.zeros((n, nx, nx))
         w1, w2, w3 = w[:, 0], w[:, 1], w[:, 2]
         Aw = np.zeros((n, 4, 4))
         Aw[:, 0, 1], Aw[:, 0, 2], Aw[:, 0, 3] = -w1, -w2, -w3
@@ -252,11 +319,11 @@ def rigid_jacobian(p: TelescopeParams):
                        np.stack([l3, l0, -l1], -1), np.stack([-l2, l1, l0], -1)], 1)
         A[:, :4, 4:7] = 0.5 * Xi
         A[:, 4:7, 4:7] = np.einsum("ab,nbc->nac", Ii, _skew(L) - _skew(w) @ I)
-        dbeta = -np.cross(w[:, None, :], Cj) + kj * U[..., None]      # (n, 6, 3)
-        A[:, 4:7, 7:13] = np.einsum("ab,njb->naj", Ii, dbeta)
-        B = np.zeros((n, 13, 6))
+        dbeta = -np.cross(w[:, None, :], Cj) + kj * U[..., None]      # (n, m, 3)
+        A[:, 4:7, 7:nx] = np.einsum("ab,njb->naj", Ii, dbeta)
+        B = np.zeros((n, nx, m))
         B[:, 4:7, :] = np.einsum("ab,njb->naj", Ii, -Cj)
-        B[:, 7:13, :] = np.eye(6)
+        B[:, 7:nx, :] = np.eye(m)
         return A, B
     return jac
 
@@ -280,7 +347,7 @@ def gyro_momentum(beta, p: TelescopeParams) -> np.ndarray:
 def body_momentum(x, p: TelescopeParams) -> np.ndarray:
     """Angular momentum of the rigid gyrostat in body axes, I w + k [N m s]."""
     x = np.asarray(x, float)
-    return p.I @ x[4:7] + gyro_momentum(x[7:13], p)
+    return p.I @ x[4:7] + gyro_momentum(x[7:7 + p.n_gyros], p)
 
 
 def inertial_momentum(x, p: TelescopeParams) -> np.ndarray:
@@ -289,9 +356,10 @@ def inertial_momentum(x, p: TelescopeParams) -> np.ndarray:
 
 
 def singularity_measure(beta, p: TelescopeParams) -> float:
-    """det(C C^T) / h^6 [1] of the 3x6 gyro Jacobian C = dk/dbeta (0 = singular state).
+    """det(C C^T) / h^6 [1] of the 3 x n gyro Jacobian C = dk/dbeta (0 = singular state).
 
-    Normalised by h^6: the maximum over beta is 8 (C C^T = 2 h^2 I, trace = 6 h^2).
+    Normalised by h^6: the maximum over beta is :func:`sing_max` (8 for six gyrodynes:
+    C C^T = 2 h^2 I, trace = 6 h^2).
     """
     ha, hb = p.gyro_matrices()
     beta = np.asarray(beta, float)[:, None]
@@ -307,7 +375,7 @@ def envelope_radius(direction, p: TelescopeParams) -> float:
     """
     e = np.asarray(direction, float)
     e = e / np.linalg.norm(e)
-    g, _, _ = gimbal_vectors(p.rotor_ref)
+    g, _, _ = gimbal_vectors(p.rotor_ref, p.gimbal_axes)
     return float(p.h * sum(math.sqrt(max(0.0, 1.0 - float(np.dot(e, gj)) ** 2)) for gj in g))
 
 
@@ -369,6 +437,9 @@ class Telescope(SlaveBase):
     """FMU of the rigid S4 telescope: inputs gimbal rates and their slopes; outputs the state,
     inertial angular momentum, the CMG singularity measure and the status.
 
+    Up to :data:`N_GYROS_MAX` gyrodynes: ``n_gyros`` (Integer) of them with the gimbal axes
+    ``gimbal_axes[1..3 n_gyros]``; the inputs and outputs of the others are ignored / 0.
+
     The control over a communication step ``[t, t + H]`` is ``u + du (s - t)``: with ``du`` = 0 a
     zero-order hold, with the ProgramController's slopes an exact replay of a piecewise-linear
     program (first-order hold).  ``status`` (:mod:`models.integrators`) stays 0 (running) up to
@@ -378,8 +449,8 @@ class Telescope(SlaveBase):
 
     params_class = TelescopeParams
 
-    description = ("S4 orbital telescope, rigid gyrostat with six gyrodynes (dodecahedron); "
-                   "Voronov 2009")
+    description = ("S4 orbital telescope, rigid gyrostat with up to six gyrodynes (gimbal axes "
+                   "as parameters; default the dodecahedron cluster); Voronov 2009")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -392,6 +463,11 @@ class Telescope(SlaveBase):
         self.rotor_ref = list(TelescopeParams().rotor_ref)
         self.real_array("rotor_ref", self.rotor_ref, Fmi2Causality.parameter,
                         description_of(TelescopeParams, "rotor_ref"))
+        self.int_parameter("n_gyros", N_GYROS_MAX, f"number of gyrodynes in use (1..{N_GYROS_MAX});"
+                           " gimbal axes gimbal_axes[1..3 n_gyros] [1]")
+        self.gimbal_axes = list(TelescopeParams().gimbal_axes)
+        self.real_array("gimbal_axes", self.gimbal_axes, Fmi2Causality.parameter,
+                        description_of(TelescopeParams, "gimbal_axes"))
         self.parameter("dt", DT_INTEGRATION, "RK4 sub-step of the internal integration [s]")
         self.lam_init = list(INITIAL_STATE[:4])
         self.w_init = list(INITIAL_STATE[4:7])
@@ -415,14 +491,14 @@ class Telescope(SlaveBase):
         for k in range(3):
             self.output(f"w{k + 1}", f"body rate omega{k + 1} [rad/s]",
                         getter=lambda k=k: x()[4 + k])
-        for k in range(6):
-            self.output(f"beta{k + 1}", f"gimbal angle beta{k + 1} [rad]",
-                        getter=lambda k=k: x()[7 + k])
+        for k in range(N_GYROS_MAX):
+            self.output(f"beta{k + 1}", f"gimbal angle beta{k + 1} (0 if k > n_gyros) [rad]",
+                        getter=lambda k=k: x()[7 + k] if k < self._n else 0.0)
         for k in range(3):
             self.output(f"K{k + 1}", f"inertial angular momentum K{k + 1} (first integral) "
                         "[N m s]", getter=lambda k=k: float(self._momentum()[k]))
         self.output("sing", "CMG singularity measure det(C C^T)/h^6, 0 = singular [1]",
-                    getter=lambda: singularity_measure(x()[7:13], self._params))
+                    getter=lambda: singularity_measure(x()[7:7 + self._n], self._params))
         self.output("lam_norm", "quaternion norm |lambda| (first integral, = 1) [1]",
                     getter=lambda: math.sqrt(sum(v * v for v in x()[:4])))
         self._register_extra_outputs()
@@ -441,19 +517,25 @@ class Telescope(SlaveBase):
         return inertial_momentum(self._ig.x, self._params)
 
     def params(self) -> TelescopeParams:
-        """The current parameter values (the inertia from ``I11..I33``)."""
+        """The current parameter values (the inertia from ``I11..I33``, the first ``n_gyros``
+        gimbal axes)."""
         return TelescopeParams(inertia=tuple(getattr(self, n) for n in INERTIA_NAMES), h=self.h,
-                               rotor_ref=tuple(self.rotor_ref))
+                               rotor_ref=tuple(self.rotor_ref),
+                               gimbal_axes=tuple(self.gimbal_axes[:3 * self.n_gyros]))
 
     def _initial_state(self):
-        return tuple(self.lam_init) + tuple(self.w_init) + tuple(self.beta_init)
+        return (tuple(self.lam_init) + tuple(self.w_init)
+                + tuple(self.beta_init[:self.n_gyros]))
 
     def _make_rhs(self):
         return make_rigid_rhs(self._params)
 
     def check_parameters(self) -> None:
+        if not 1 <= self.n_gyros <= N_GYROS_MAX:
+            raise ParameterError(f"parameter n_gyros must be in 1..{N_GYROS_MAX}, got "
+                                 f"{self.n_gyros}")
         super().check_parameters()
-        for n, v in zip(("lam_init",) * 4 + ("w_init",) * 3 + ("beta_init",) * 6,
+        for n, v in zip(("lam_init",) * 4 + ("w_init",) * 3 + ("beta_init",) * N_GYROS_MAX,
                         self._initial_state()):
             require_finite(n, v)
         nrm = math.sqrt(sum(v * v for v in self.lam_init))
@@ -462,6 +544,7 @@ class Telescope(SlaveBase):
 
     def prepare(self) -> None:
         self._params = self.params()
+        self._n = self._params.n_gyros
         self._ig = AttitudeIntegrator(self._make_rhs(), self._initial_state(), self.dt)
 
     def do_step(self, current_time: float, step_size: float) -> bool:

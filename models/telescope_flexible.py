@@ -1,7 +1,7 @@
 """S4 flexible variant -- the telescope carrying two solar panels, two modal coordinates each.
 
-State ``x = (lam[4], w[3], beta[6], eta[4], deta[4])`` (21): the rigid state of
-``models/telescope.py`` followed by the modal coordinates ``eta`` [sqrt(kg) m] (mass-normalised:
+State ``x = (lam[4], w[3], beta[n], eta[4], deta[4])`` (21 with six gyrodynes): the rigid state
+of ``models/telescope.py`` followed by the modal coordinates ``eta`` [sqrt(kg) m] (mass-normalised:
 panel 1 modes 1-2, panel 2 modes 1-2) and their rates.  Hybrid-coordinates model (Voronov 2009,
 Example 2, eq. (10)):
 
@@ -88,7 +88,7 @@ class PanelParams(Params):
 
 
 def make_flexible_rhs(p: TelescopeParams, pp: PanelParams):
-    """Return ``f(x, u)`` of the flexible telescope on tuples (21 states, 6 controls)."""
+    """Return ``f(x, u)`` of the flexible telescope on tuples (15 + n states, n controls)."""
     p.validate()
     pp.validate(p)
     I = p.I
@@ -103,6 +103,8 @@ def make_flexible_rhs(p: TelescopeParams, pp: PanelParams):
     ha, hb = p.gyro_matrices()
     gy = [(tuple(float(v) for v in a), tuple(float(v) for v in b)) for a, b in zip(ha, hb)]
     modes = list(zip(Dl, damp, stiff))
+    n = len(gy)
+    e0, d0 = 7 + n, 7 + n + N_MODES          # first modal coordinate and rate
 
     def rhs(x, u):
         l0, l1, l2, l3, w1, w2, w3 = x[0], x[1], x[2], x[3], x[4], x[5], x[6]
@@ -113,7 +115,7 @@ def make_flexible_rhs(p: TelescopeParams, pp: PanelParams):
         r2 = []
         i = 0
         for (dv, dd, kk) in modes:
-            e, de = x[13 + i], x[17 + i]
+            e, de = x[e0 + i], x[d0 + i]
             p1 += dv[0] * de
             p2 += dv[1] * de
             p3 += dv[2] * de
@@ -134,10 +136,8 @@ def make_flexible_rhs(p: TelescopeParams, pp: PanelParams):
         a3 = c31 * r1 + c32 * r2_ + c33 * r3
         eta_dd = tuple(f - (dv[0] * a1 + dv[1] * a2 + dv[2] * a3)
                        for f, (dv, _, _) in zip(r2, modes))
-        return quaternion_rate(l0, l1, l2, l3, w1, w2, w3) + (
-                a1, a2, a3,
-                u[0], u[1], u[2], u[3], u[4], u[5],
-                x[17], x[18], x[19], x[20]) + eta_dd
+        return (quaternion_rate(l0, l1, l2, l3, w1, w2, w3) + (a1, a2, a3) + tuple(u[:n])
+                + tuple(x[d0:d0 + N_MODES]) + eta_dd)
     return rhs
 
 
@@ -149,7 +149,9 @@ def flexible_initial_state(rigid_x0) -> tuple:
 def flexible_inertial_momentum(x, p: TelescopeParams, pp: PanelParams) -> np.ndarray:
     """First integral K = R(lam) (I w + k + D^T deta) [N m s]."""
     x = np.asarray(x, float)
-    body = p.I @ x[4:7] + gyro_momentum(x[7:13], p) + pp.D.T @ x[17:21]
+    n = p.n_gyros
+    body = (p.I @ x[4:7] + gyro_momentum(x[7:7 + n], p)
+            + pp.D.T @ x[7 + n + N_MODES:7 + n + 2 * N_MODES])
     return quat_to_matrix(x) @ body
 
 
@@ -171,7 +173,8 @@ class FlexibleTelescope(Telescope):
     def _register_extra_outputs(self):
         for k in range(N_MODES):
             self.output(f"eta{k + 1}", f"modal coordinate {k + 1} (panel {k // 2 + 1}, mode "
-                        f"{k % 2 + 1}) [sqrt(kg) m]", getter=lambda k=k: self._ig.x[13 + k])
+                        f"{k % 2 + 1}) [sqrt(kg) m]",
+                        getter=lambda k=k: self._ig.x[7 + self._n + k])
 
     def _panel_params(self) -> PanelParams:
         return PanelParams(**{f.name: tuple(getattr(self, f.name)) for f in fields(PanelParams)})

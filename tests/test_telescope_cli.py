@@ -1,7 +1,7 @@
-"""``descent-fmus telescope reorient | write-programs`` and the system package.
+"""``descent-fmus telescope reorient | route | write-programs`` and the system package.
 
-Sources: Voronov (2009), Example 1 (5 iterations to 1e-7), the stored programs (a fresh solve
-must reproduce them).
+Sources: Voronov (2009), Example 1 (5 iterations to 1e-7) and Example 3 (the route, eps), the
+stored programs (a fresh solve must reproduce them), the closed-form reach of a rate limit.
 """
 from __future__ import annotations
 
@@ -42,10 +42,49 @@ def test_user_errors_are_one_line_exit_2(capsys, argv, message):
     assert message in err and len(err.strip().splitlines()) == 1
 
 
+def test_reorient_with_a_gimbal_rate_limit(capsys):
+    assert main(["telescope", "reorient", "--u-max", "--json"]) == 0
+    s = json.loads(capsys.readouterr().out)
+    # the default limit 0.1 rad/s binds (unconstrained peak 0.137), end accuracy 1e-7 kept
+    assert s["u_max"] == 0.1 and s["u_max_abs"] <= 0.1
+    assert max(map(abs, s["final_errors"].values())) < 1e-7
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["reorient", "--u-max", "0.003"], "too small"),             # closed form, no iteration
+    (["reorient", "--u-max", "0.02"], "too small"),              # bounded iterations
+    (["route", "--w0", "0", "0.3", "0"], "starts away from the initial state"),
+    (["route", "--u-max", "0.005"], "too small for the route"),
+])
+def test_rate_limit_and_route_errors_are_one_line_and_write_nothing(capsys, tmp_path, argv,
+                                                                     message):
+    plot = tmp_path / "out.png"
+    assert main(["telescope"] + argv + ["--plot", str(plot)]) == 2
+    err = capsys.readouterr().err
+    assert message in err and len(err.strip().splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_route_json_and_plot(capsys, tmp_path):
+    path = tmp_path / "route.png"
+    assert main(["telescope", "route", "--eps", "1e-3", "--rule", "adaptive", "--json",
+                 "--plot", str(path)]) == 0
+    s = json.loads(capsys.readouterr().out)
+    # a looser neighbourhood than Example 3's (5e-5) needs few stages; every deviation within it
+    assert s["eps"] == 1e-3 and s["max_deviation"] <= 1e-3 and s["max_relative_deviation"] <= 1
+    assert s["rule"] == "adaptive" and s["joints"] == "continuous"
+    assert 1 <= s["stages"] <= s["paper_stages"] and s["tau"][0] == 0 and s["tau"][-1] == 80
+    assert s["plot"] == str(path) and list(tmp_path.iterdir()) == [path]
+    assert path.read_bytes()[:4] == b"\x89PNG"
+
+
 def test_bad_option_values_are_refused_by_the_parser(capsys):
-    for argv in (["--T", "-5"], ["--tol", "0"], ["--max-iter", "0"]):
+    for argv in (["reorient", "--T", "-5"], ["reorient", "--tol", "0"],
+                 ["reorient", "--max-iter", "0"], ["reorient", "--u-max", "-0.1"],
+                 ["route", "--eps", "0"], ["route", "--eps", "-1e-5"], ["route", "--rule", "x"],
+                 ["route", "--intervals", "1"]):
         with pytest.raises(SystemExit) as exc:
-            main(["telescope", "reorient"] + argv)
+            main(["telescope"] + argv)
         assert exc.value.code == 2
     capsys.readouterr()
 

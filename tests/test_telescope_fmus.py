@@ -87,3 +87,22 @@ def test_flexible_fmu_rejects_panels_outweighing_the_body(fmu_dir):
                     fmu_dir / "ProgramController.fmu") as cl:
         with pytest.raises(FMUError, match="coupling too strong"):
             cl.run(plant_values={"coupling[1]": 200.0}, stop_time=1.0)
+
+
+@pytest.mark.parametrize("values, message", [
+    ({"n_gyros": 7}, "n_gyros must be in 1..6"),
+    ({"n_gyros": 0}, "n_gyros must be in 1..6"),
+    ({"gimbal_axes[4]": 0.0, "gimbal_axes[5]": 0.0, "gimbal_axes[6]": 0.0}, "gimbal axis 2"),
+])
+def test_fmu_rejects_a_bad_gyro_cluster(fmu_dir, values, message):
+    with ClosedLoop(WIRING, fmu_dir / "Telescope.fmu", fmu_dir / "ProgramController.fmu") as cl:
+        with pytest.raises(FMUError, match=message):
+            cl.run(plant_values=values, stop_time=1.0)
+
+
+def test_program_controller_rejects_node_times_out_of_order(fmu_dir):
+    values = program_values(2.0, [[0.0] * 6] * 3, times=[0.0, 1.0, 2.0])
+    values["t_node[3]"] = 0.5
+    with ClosedLoop(WIRING, fmu_dir / "Telescope.fmu", fmu_dir / "ProgramController.fmu") as cl:
+        with pytest.raises(FMUError, match="increasing"):
+            cl.run(controller_values=values, stop_time=1.0)

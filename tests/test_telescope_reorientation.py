@@ -2,8 +2,10 @@
 
 Sources: Voronov (2009), ch. 2 Examples 1-2 (5 iterations to 1e-7 rigid, 1e-8 in ~10 iterations
 flexible, u(t0) = u(tf) = 0, deviations 1e-4 ... 1e-5 between full and reduced models); closed
-forms (momentum envelope, first integrals); independent SciPy solve_ivp (DOP853) integrations of
-the computed controls.  (That the stored programs are a fresh solve's output is checked through
+forms (momentum envelope, first integrals, the rotors' reach under a rate limit); independent
+SciPy solve_ivp (DOP853) integrations of the computed controls; for the minimum-energy option
+the least energy CasADi + IPOPT found for Example 1 (0.251, piecewise-linear u on 40
+intervals).  (That the stored programs are a fresh solve's output is checked through
 ``descent-fmus telescope write-programs`` in test_telescope_cli.py.)
 """
 from __future__ import annotations
@@ -19,7 +21,11 @@ from descent_fmus.models.telescope import (INITIAL_STATE, TARGET_LAM, TARGET_W, 
                                            make_rigid_rhs, singularity_measure)
 from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inertial_momentum,
                                                     flexible_initial_state, make_flexible_rhs)
-from descent_fmus.synthesis.systems.telescope.reorientation import (UnreachableTargetError,
+from descent_fmus.synthesis.methods.direct_method import SaturatedError
+from descent_fmus.synthesis.systems.telescope.reorientation import (ENERGY_TARGET, MAX_ITER,
+                                                                    U_MAX_DEFAULT,
+                                                                    RateLimitTooSmallError,
+                                                                    UnreachableTargetError,
                                                                     reorient)
 
 TARGET = np.array(TARGET_LAM + TARGET_W)
@@ -123,3 +129,56 @@ def test_invalid_parameters_are_refused_before_iterating():
     with pytest.raises(ParameterError, match="coupling too strong"):
         reorient(flexible=True, panels=PanelParams(coupling=(200.0,) + (0.0,) * 11))
 
+
+
+# -- gimbal-rate limits and minimum energy (Example 1) --------------------------------------------
+@pytest.fixture(scope="module")
+def rate_limited():
+    return reorient(u_max=U_MAX_DEFAULT)
+
+
+@pytest.fixture(scope="module")
+def min_energy():
+    return reorient(min_energy=True)
+
+
+def test_rate_limited_reorientation(rigid, rate_limited):
+    u_max = U_MAX_DEFAULT
+    # the limit binds: the unconstrained solution peaks at 0.137 rad/s
+    assert np.max(np.abs(rigid.result.controls)) > 0.13 > u_max
+    r = rate_limited.result
+    assert np.max(np.abs(r.states[-1, :7] - TARGET)) < 1e-7
+    # node values within the limit, u linear between nodes: |u_j(t)| <= u_max for every t
+    assert np.max(np.abs(r.controls)) == u_max
+    assert np.all(r.controls[0] == 0.0) and np.all(r.controls[-1] == 0.0)
+    # oracle: an independent DOP853 run of the rate-limited control reaches the target
+    x = _dop853(make_rigid_rhs(P), INITIAL_STATE, r.t_nodes, r.controls)
+    assert np.max(np.abs(x[:7] - TARGET)) < 1e-7
+
+
+def test_minimum_energy_reorientation(rigid, min_energy):
+    r = min_energy.result
+    assert np.max(np.abs(r.states[-1, :7] - TARGET)) < 1e-7
+    assert np.all(r.controls[0] == 0.0) and np.all(r.controls[-1] == 0.0)
+    # reference: CasADi + IPOPT, least energy 0.251 (piecewise-linear u, 40 intervals); target
+    # within 5 % of it -- the plain direct method's control has 0.552
+    assert r.energy <= ENERGY_TARGET
+    assert rigid.result.energy > 2.0 * r.energy
+    # oracle: an independent DOP853 run of the minimum-energy control reaches the target
+    x = _dop853(make_rigid_rhs(P), INITIAL_STATE, r.t_nodes, r.controls)
+    assert np.max(np.abs(x[:7] - TARGET)) < 1e-7
+    # closed form: the energy of the piecewise-linear control, summed interval by interval
+    dt = np.diff(r.t_nodes)[:, None]
+    a, b = r.controls[:-1], r.controls[1:]
+    assert r.energy == pytest.approx(float(np.sum(dt * (a * a + a * b + b * b)) / 3.0))
+
+
+def test_too_small_rate_limit_is_an_error_after_bounded_work():
+    # closed form: in 40 s a rotor turns at most 0.12 rad at 0.003 rad/s: its momentum changes
+    # by at most 2 h sin(0.06) per gyro, 180 N m s for six < the 316 N m s the target needs
+    with pytest.raises(RateLimitTooSmallError, match="too small"):
+        reorient(u_max=0.003)
+    # passes the closed form, yet too small: a bounded number of iterations, then a message
+    with pytest.raises(SaturatedError, match="too small") as exc:
+        reorient(u_max=0.02)
+    assert len(exc.value.history) <= MAX_ITER + 1

@@ -1,26 +1,29 @@
-"""S4 orbital telescope with six control-moment gyros: the reorientation by the direct
-(Newton-Kantorovich) method, flown through the FMUs as a program.
+"""S4 orbital telescope with control-moment gyros: the reorientation and the route problem by the
+direct (Newton-Kantorovich) method, flown through the FMUs as programs.
 
 Files of this system: ``models/telescope.py`` (rigid equations, Jacobian, invariants, the
 ``AttitudeIntegrator`` and the Telescope FMU), ``models/telescope_flexible.py`` (two flexible
 solar panels, the FlexibleTelescope FMU), ``models/rk4_input.py`` (RK4 with a first-order-hold
 control, shared with the method), this package (``wiring`` the closed loops and their stored
-programs ``programs.json``, ``reorientation`` the solves, replay and plot, ``cli`` its commands),
+programs ``programs.json``, ``reorientation`` the solves, replay and plot, ``route`` the route
+problem of Example 3, ``cli`` its commands),
 ``tests/test_telescope_*.py``, ``benchmarks/telescope.py`` and ``docs/make_telescope_figures.py``.
-The generic pieces it uses: the ProgramController FMU (``models/controllers/program_table.py``)
-and the direct method (``synthesis/methods/direct_method.py``, tested in
-``tests/test_direct_method.py``).
+The generic pieces it uses: the ProgramController FMU (``models/controllers/program_table.py``),
+the direct method (``synthesis/methods/direct_method.py``, tested in
+``tests/test_direct_method.py``) and the route tracer (``synthesis/methods/route.py``,
+``tests/test_route.py``).
 
 References
 ----------
-S.A. Voronov, PhD thesis (2009), ch. 2, Examples 1-2.
+S.A. Voronov, PhD thesis (2009), ch. 2, Examples 1-2; ch. 3, Example 3.
 """
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
 from descent_fmus.synthesis.systems.telescope import cli, wiring
 
 SYSTEM = System(
     stem="telescope",
-    title="S4 orbital telescope with six CMGs: reorientation by the direct method",
+    title="S4 orbital telescope with CMGs: reorientation and route tracing by the direct "
+          "method",
     fmus=("telescope:Telescope", "telescope_flexible:FlexibleTelescope",
           "controllers.program_table:ProgramController"),
     closed_loops=(ClosedLoopSpec(wiring.WIRING, controller_defaults=wiring.rigid_program),

@@ -1,9 +1,11 @@
 """S4 reorientation of the orbital telescope by the direct method (rigid and flexible models).
 
-* :func:`reorient` -- checks that the target is inside the CMG momentum envelope, then solves
-  the reorientation with :func:`synthesis.methods.direct_method.solve` (rigid model; or the
+* :func:`reorient` -- checks that the target is inside the CMG momentum envelope (and, with a
+  gimbal-rate limit, that the limit can move the rotors far enough), then solves the
+  reorientation with :func:`synthesis.methods.direct_method.solve` (rigid model; or the
   flexible model with the *reduced* algorithm: linearise the rigid model, close the miss on the
-  flexible one);
+  flexible one); optionally with the gimbal-rate limits ``|u_j| <= u_max`` and/or for the
+  minimum-energy control (least ``int |u|^2 dt``);
 * :func:`path_metrics` -- invariant drift, singularity measure along the path;
 * :func:`replay` -- fly the computed program through the FMUs with fmpy (ProgramController +
   Telescope / FlexibleTelescope) and compare with the target;
@@ -20,14 +22,14 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from descent_fmus.models.telescope import (DT_INTEGRATION, INITIAL_STATE, T_DEFAULT, TARGET_LAM,
                                            TARGET_W, TelescopeParams, envelope_radius,
-                                           inertial_momentum, make_rigid_rhs,
+                                           gyro_momentum, inertial_momentum, make_rigid_rhs,
                                            required_gyro_momentum, rigid_jacobian,
                                            singularity_measure)
 from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inertial_momentum,
@@ -35,7 +37,9 @@ from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inerti
 from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, DirectResult,
                                                           LinearModel, simulate, solve)
 
-__all__ = ["UnreachableTargetError", "Reorientation", "reorient", "check_reachable",
+__all__ = ["UnreachableTargetError", "RateLimitTooSmallError", "Reorientation", "reorient",
+           "check_reachable", "check_rate_limit", "U_MAX_DEFAULT", "ENERGY_REFERENCE",
+           "ENERGY_TARGET",
            "path_metrics", "replay", "plot_reorientation", "rigid_problem", "flexible_problem",
            "write_programs", "GRID_STEP", "TOL_RIGID", "TOL_FLEXIBLE", "MAX_ITER",
            "PAPER_SECONDS", "PAPER_ITERATIONS", "STATE_NAMES"]
@@ -52,17 +56,28 @@ MAX_ITER = 20
 #: The thesis' figures for the rigid case (Voronov 2009, Example 1).
 PAPER_SECONDS = 1.7
 PAPER_ITERATIONS = 5
+#: Default gimbal-rate limit [rad/s] of ``--u-max`` ([choice]: binds for Example 1, whose
+#: unconstrained peak is 0.137 rad/s).
+U_MAX_DEFAULT = 0.1
+#: Least ``int |u|^2 dt`` [rad^2/s] found for Example 1 by CasADi + IPOPT (piecewise-linear u,
+#: 40 intervals), the reference of the minimum-energy option; accepted within 5 %.
+ENERGY_REFERENCE = 0.251
+ENERGY_TARGET = 1.05 * ENERGY_REFERENCE
 
 
 class UnreachableTargetError(ValueError):
     """The end state needs a gyro momentum outside the CMG envelope (no control can reach it)."""
 
 
+class RateLimitTooSmallError(ValueError):
+    """The gimbal-rate limit cannot turn the rotors far enough in the time given."""
+
+
 def check_reachable(x0, lam_f, w_f, p: TelescopeParams, margin: float = 1.0) -> dict:
     """Raise :class:`UnreachableTargetError` if the target needs |k| beyond the envelope.
 
     The inertial momentum K is conserved, so at T the gyros must hold
-    ``k_f = R(lam_f)^T K - I w_f``; along its direction e the six gyros reach at most
+    ``k_f = R(lam_f)^T K - I w_f``; along its direction e the n gyros reach at most
     ``h sum_j sqrt(1 - (e.g_j)^2)`` (:func:`models.telescope.envelope_radius`).  Checked before
     iterating, so an impossible target is a message, not a diverging loop.
     """
@@ -71,14 +86,39 @@ def check_reachable(x0, lam_f, w_f, p: TelescopeParams, margin: float = 1.0) -> 
         raise UnreachableTargetError(f"target quaternion must have unit norm, |lam_f| = {nrm}")
     kf = required_gyro_momentum(x0, lam_f, w_f, p)
     need = float(np.linalg.norm(kf))
-    limit = envelope_radius(kf, p) if need > 0 else 6 * p.h
+    n = p.n_gyros
+    limit = envelope_radius(kf, p) if need > 0 else n * p.h
     if need >= margin * limit:
         raise UnreachableTargetError(
             f"the target needs a gyro angular momentum of {need:.1f} N m s along "
-            f"({kf[0] / need:+.3f}, {kf[1] / need:+.3f}, {kf[2] / need:+.3f}) but the six "
-            f"gyros reach at most {limit:.1f} N m s in that direction (6h = {6 * p.h:.0f}): "
+            f"({kf[0] / need:+.3f}, {kf[1] / need:+.3f}, {kf[2] / need:+.3f}) but the {n} "
+            f"gyros reach at most {limit:.1f} N m s in that direction ({n}h = {n * p.h:.0f}): "
             "lower the final body rate or change the target attitude")
     return dict(k_required=need, envelope=limit, fraction=need / limit)
+
+
+def check_rate_limit(x0, lam_f, w_f, p: TelescopeParams, u_max: float, T: float) -> dict:
+    """Raise :class:`RateLimitTooSmallError` if ``|u_j| <= u_max`` cannot change the gyro
+    momentum from ``k(beta0)`` to the ``k_f`` the target needs within ``T``.
+
+    A necessary condition in closed form: gimbal j turns at most ``u_max T`` (and at most pi
+    matters), moving its rotor momentum by at most the chord ``2 h sin(min(u_max T, pi) / 2)``,
+    so ``|k_f - k(beta0)| <= n 2 h sin(min(u_max T, pi) / 2)``.  A limit that passes may still
+    be too small (the path matters): the direct method then stops with a message after a
+    bounded number of iterations.
+    """
+    n = p.n_gyros
+    dk = float(np.linalg.norm(required_gyro_momentum(x0, lam_f, w_f, p)
+                              - gyro_momentum(np.asarray(x0, float)[7:7 + n], p)))
+    reach = 2.0 * n * p.h * math.sin(min(u_max * T, math.pi) / 2.0)
+    if dk > reach:
+        need = 2.0 * math.asin(min(1.0, dk / (2.0 * n * p.h))) / T
+        raise RateLimitTooSmallError(
+            f"the gimbal-rate limit {u_max:g} rad/s is too small: in {T:g} s it turns every "
+            f"rotor by at most {u_max * T:.3g} rad, moving the gyro momentum by at most "
+            f"{reach:.1f} N m s, but the target needs a change of {dk:.1f} N m s (any limit "
+            f"below {need:.3g} rad/s cannot reach it)")
+    return dict(dk_required=dk, dk_reachable=reach)
 
 
 def rigid_problem(p: TelescopeParams, T: float, lam_f, w_f, x0=INITIAL_STATE,
@@ -93,7 +133,7 @@ def rigid_problem(p: TelescopeParams, T: float, lam_f, w_f, x0=INITIAL_STATE,
     lam_f, w_f : sequence
         Target quaternion [1] and body rate [rad/s].
     x0 : sequence
-        Initial state (13).
+        Initial state (7 + n).
     grid_step : float
         Control grid spacing [s] (rounded to a whole number of intervals over T).
     dt : float
@@ -103,7 +143,7 @@ def rigid_problem(p: TelescopeParams, T: float, lam_f, w_f, x0=INITIAL_STATE,
     m = max(2, 2 * int(math.ceil(T / n / dt / 2 - 1e-9)))
     return BoundaryProblem(rhs=make_rigid_rhs(p), x0=tuple(x0), tf=T,
                            target_index=tuple(range(7)), target_value=tuple(lam_f) + tuple(w_f),
-                           n_u=6, intervals=n, substeps=m, jac=rigid_jacobian(p))
+                           n_u=p.n_gyros, intervals=n, substeps=m, jac=rigid_jacobian(p))
 
 
 def flexible_problem(p: TelescopeParams, pp: PanelParams, T: float, lam_f, w_f,
@@ -113,7 +153,8 @@ def flexible_problem(p: TelescopeParams, pp: PanelParams, T: float, lam_f, w_f,
     t = 0; the same grid and end conditions as :func:`rigid_problem`, no analytic Jacobian)."""
     rp = rigid_problem(p, T, lam_f, w_f, x0, grid_step, dt)
     return BoundaryProblem(rhs=make_flexible_rhs(p, pp), x0=flexible_initial_state(x0), tf=T,
-                           target_index=rp.target_index, target_value=rp.target_value, n_u=6,
+                           target_index=rp.target_index, target_value=rp.target_value,
+                           n_u=p.n_gyros,
                            intervals=rp.intervals, substeps=rp.substeps)
 
 
@@ -136,6 +177,7 @@ class Reorientation:
     rigid_on_flexible_miss: float | None = None
     warm_iterations: int | None = None
     extra: dict = field(default_factory=dict)
+    min_energy: bool = False
 
     def summary(self) -> dict:
         r = self.result
@@ -149,6 +191,8 @@ class Reorientation:
                  u_start=[float(v) for v in r.controls[0]],
                  u_end=[float(v) for v in r.controls[-1]],
                  u_max_abs=float(np.max(np.abs(r.controls))),
+                 u_max=None if r.u_max is None else float(np.max(r.u_max)),
+                 min_energy=self.min_energy, energy=r.energy,
                  k_required=self.reach["k_required"], envelope=self.reach["envelope"])
         s.update(self.metrics)
         if self.flexible:
@@ -167,21 +211,23 @@ def path_metrics(res: DirectResult, p: TelescopeParams, pp: PanelParams | None =
     else:
         K = np.array([flexible_inertial_momentum(x, p, pp) for x in X])
     dK = float(np.max(np.linalg.norm(K - K[0], axis=1)))
-    sing = np.array([singularity_measure(x[7:13], p) for x in X])
+    n = p.n_gyros
+    sing = np.array([singularity_measure(x[7:7 + n], p) for x in X])
     i = int(np.argmin(sing))
     out = dict(lam_norm_drift=lam_dev, momentum_drift=dK,
                momentum_drift_relative=dK / float(np.linalg.norm(K[0])),
                K0=[float(v) for v in K[0]], sing_min=float(sing[i]), sing_min_time=float(res.t[i]),
                sing_start=float(sing[0]), sing_end=float(sing[-1]), sing_max_possible=8.0)
     if pp is not None:
-        out["eta_max"] = float(np.max(np.abs(X[:, 13:17])))
+        out["eta_max"] = float(np.max(np.abs(X[:, 7 + n:11 + n])))
     return out
 
 
 def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = None,
              lam_f=TARGET_LAM, w_f=TARGET_W, params: TelescopeParams = TelescopeParams(),
              panels: PanelParams = PanelParams(), max_iter: int = MAX_ITER,
-             grid_step: float = GRID_STEP) -> Reorientation:
+             grid_step: float = GRID_STEP, u_max: float | None = None,
+             min_energy: bool = False, x0=INITIAL_STATE) -> Reorientation:
     """Solve the S4 reorientation (Voronov 2009, Examples 1-2) by the direct method.
 
     Parameters
@@ -201,6 +247,12 @@ def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = N
         Iteration limit of the direct method.
     grid_step : float
         Control grid spacing [s].
+    u_max : float, optional
+        Gimbal-rate limit ``|u_j(t)| <= u_max`` [rad/s] for every gyrodyne and every t.
+    min_energy : bool
+        Seek the control of least ``int |u|^2 dt`` among those meeting the end conditions.
+    x0 : sequence
+        Initial state (default: Example 1's).
 
     Raises
     ------
@@ -208,6 +260,8 @@ def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = N
         Invalid ``params`` or ``panels``.
     UnreachableTargetError
         The end state is outside the CMG momentum envelope (checked before iterating).
+    RateLimitTooSmallError
+        ``u_max`` cannot move the rotors far enough in ``T`` (closed form, before iterating).
     synthesis.methods.direct_method.ConvergenceError
         The iterations failed (the message says why).
     """
@@ -221,25 +275,36 @@ def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = N
     params.validate()
     if flexible:
         panels.validate(params)
-    reach = check_reachable(INITIAL_STATE, lam_f, w_f, params)
+    x0 = tuple(float(v) for v in x0)
+    if len(x0) != params.n_states:
+        raise ValueError(f"x0 needs {params.n_states} values (lam, w, beta), got {len(x0)}")
+    reach = check_reachable(x0, lam_f, w_f, params)
+    if u_max is not None:
+        if not (math.isfinite(u_max) and u_max > 0):
+            raise ValueError(f"u_max must be > 0 [rad/s], got {u_max}")
+        reach.update(check_rate_limit(x0, lam_f, w_f, params, u_max, T))
+    options = dict(u_max=u_max, minimize_energy=bool(min_energy))
     if not flexible:
-        pb = rigid_problem(params, T, lam_f, w_f, grid_step=grid_step)
+        pb = replace(rigid_problem(params, T, lam_f, w_f, x0=x0, grid_step=grid_step), **options)
         res = solve(pb, tol=tol, max_iter=max_iter)
-        return Reorientation(False, T, tol, res, path_metrics(res, params), reach, params)
-    pbf = flexible_problem(params, panels, T, lam_f, w_f, grid_step=grid_step)
-    reduced = LinearModel(rigid_jacobian(params), project=lambda X: X[:, :13])
+        return Reorientation(False, T, tol, res, path_metrics(res, params), reach, params,
+                             min_energy=bool(min_energy))
+    pbf = replace(flexible_problem(params, panels, T, lam_f, w_f, x0=x0, grid_step=grid_step),
+                  **options)
+    nr = params.n_states
+    reduced = LinearModel(rigid_jacobian(params), project=lambda X: X[:, :nr])
     res = solve(pbf, tol=tol, max_iter=max_iter, linear=reduced)
     # the rigid solution flown on the flexible model, and the reduced algorithm started from it
     t0 = time.perf_counter()
-    rig = solve(rigid_problem(params, T, lam_f, w_f, grid_step=grid_step), tol=min(tol, 1e-9),
-                max_iter=max_iter)
+    rig = solve(replace(rigid_problem(params, T, lam_f, w_f, x0=x0, grid_step=grid_step),
+                        **options), tol=min(tol, 1e-9), max_iter=max_iter)
     _, Xf, _ = simulate(pbf.rhs, pbf.x0, rig.t_nodes, rig.controls, pbf.substeps)
     rof = float(np.max(np.abs(Xf[-1, :7] - np.array(pbf.target_value))))
     warm = solve(pbf, controls=rig.controls, tol=tol, max_iter=max_iter, linear=reduced)
     extra = dict(rigid_then_reduced_seconds=time.perf_counter() - t0)
     return Reorientation(True, T, tol, res, path_metrics(res, params, panels), reach, params,
                          panels, rigid_on_flexible_miss=rof, warm_iterations=warm.iterations,
-                         extra=extra)
+                         extra=extra, min_energy=bool(min_energy))
 
 
 def replay(ro: Reorientation, fmu_dir=None, step: float | None = None) -> dict:
@@ -286,13 +351,14 @@ def plot_reorientation(ro: Reorientation, path) -> Path:
     r, p = ro.result, ro.params
     tag = "flexible" if ro.flexible else "rigid"
     X, t = r.states, r.t
-    sing = [singularity_measure(x[7:13], p) for x in X]
+    n = p.n_gyros
+    sing = [singularity_measure(x[7:7 + n], p) for x in X]
     rows = 7 if ro.flexible else 6
     fig, ax = plt.subplots(rows, 1, figsize=(8, 2.2 * rows),
                            gridspec_kw={"height_ratios": [1] * (rows - 1) + [1.2]})
     for a in ax[1:-1]:
         a.sharex(ax[0])
-    for j in range(6):
+    for j in range(n):
         ax[0].plot(r.t_nodes, np.degrees(r.controls[:, j]), label=f"u{j + 1}")
     ax[0].set_ylabel("gimbal rate u [deg/s]")
     for j in range(3):
@@ -301,14 +367,14 @@ def plot_reorientation(ro: Reorientation, path) -> Path:
     for j in range(4):
         ax[2].plot(t, X[:, j], label=f"lam{j}")
     ax[2].set_ylabel("quaternion [1]")
-    for j in range(6):
+    for j in range(n):
         ax[3].plot(t, np.degrees(X[:, 7 + j]), label=f"beta{j + 1}")
     ax[3].set_ylabel("gimbal angle [deg]")
     ax[4].plot(t, sing, "k")
     ax[4].set_ylabel("det(CC^T)/h^6 [1]")
     if ro.flexible:
         for j in range(4):
-            ax[5].plot(t, X[:, 13 + j], label=f"eta{j + 1}")
+            ax[5].plot(t, X[:, 7 + n + j], label=f"eta{j + 1}")
         ax[5].set_ylabel("modal coord. [sqrt(kg) m]")
     for a in ax[:-2]:
         a.tick_params(labelbottom=False)

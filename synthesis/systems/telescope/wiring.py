@@ -58,14 +58,21 @@ WIRING = wiring("Telescope")
 FLEXIBLE_WIRING = wiring("FlexibleTelescope")
 
 
-def plant_values(params, panels=None, dt: float | None = None) -> dict:
-    """Start values of a telescope plant FMU for a ``TelescopeParams`` (and ``PanelParams``),
-    and the RK4 sub-step ``dt`` [s] if given."""
+def plant_values(params, panels=None, dt: float | None = None, state=None) -> dict:
+    """Start values of a telescope plant FMU for a ``TelescopeParams`` (its inertia, rotor
+    momentum, rotor reference, number of gyrodynes and gimbal axes; and ``PanelParams``), the
+    RK4 sub-step ``dt`` [s] and the initial ``state`` (lambda, omega [rad/s], beta [rad]) if
+    given."""
     values = dict(zip(INERTIA_NAMES, params.inertia))
     values["h"] = params.h
-    vectors = {"rotor_ref": params.rotor_ref}
+    values["n_gyros"] = params.n_gyros
+    vectors = {"rotor_ref": params.rotor_ref, "gimbal_axes": params.gimbal_axes}
     if panels is not None:
         vectors.update(asdict(panels))
+    if state is not None:
+        state = tuple(float(v) for v in state)
+        vectors.update(lam_init=state[:4], w_init=state[4:7],
+                       beta_init=state[7:7 + params.n_gyros])
     for name, vector in vectors.items():
         values.update((f"{name}[{k + 1}]", v) for k, v in enumerate(vector))
     if dt is not None:
