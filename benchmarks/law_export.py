@@ -1,0 +1,131 @@
+"""Benchmark: exporting the Pareto laws of a synthesis run -- compact native vs full pythonfmu.
+
+A default ``synthesize reentry`` run ends with about 200 Pareto laws.  This script exports N
+laws (the laws of a finished run's pareto.json, or N laws the GA's variations make from the
+reentry basic law) the way ``synthesize`` now does by default (law.json with the readable
+formula, law.h/law.c, the native law FMU) and, for a few of them, the old way (pythonfmu
+controller + closed-loop FMU + SSP), and prints sizes, times and their ratios.  It also times
+one closed-loop flight with the native law against the pythonfmu controller.
+
+    python benchmarks/law_export.py [--laws 200] [--run DIR] [--fmus DIR] [--json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from descent_fmus.synthesis.law_export import export_law_files
+from descent_fmus.synthesis.methods.ga import StructureCodec
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.synthesize import replace_law
+
+
+def ga_laws(n: int, seed: int = 0) -> list:
+    """``n`` laws as the GA makes them: rounds of 8 structural variations of the basic law."""
+    problem = get_problem("reentry")
+    basic = problem.basic_law
+    codec = StructureCodec(basic.size, basic.nx + len(basic.q), problem.unary, problem.binary)
+    rng = np.random.default_rng(seed)
+    laws = []
+    while len(laws) < n:
+        psi = basic.psi
+        for _ in range(int(rng.integers(1, 4))):
+            psi = codec.apply(psi, [codec.random(rng) for _ in range(8)])
+        laws.append(replace_law(basic, psi, list(rng.uniform(0.0, 16.0, len(basic.q)))))
+    return laws
+
+
+def folder_bytes(path: Path) -> int:
+    return sum(p.stat().st_size for p in Path(path).rglob("*") if p.is_file())
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--laws", type=int, default=200)
+    ap.add_argument("--full", type=int, default=3, help="laws also exported the old way")
+    ap.add_argument("--run", type=Path, default=None, help="a finished run: its Pareto laws")
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    problem = get_problem("reentry")
+    if args.run:
+        laws = [NetworkOperator.from_dict(r["law"])
+                for r in json.loads((args.run / "pareto.json").read_text())][:args.laws]
+    else:
+        laws = ga_laws(args.laws)
+    out = {}
+    with tempfile.TemporaryDirectory(prefix="law_export_") as tmp:
+        tmp = Path(tmp)
+        t_read, t0 = [], time.perf_counter()
+        for k, law in enumerate(laws):
+            t1 = time.perf_counter()
+            law.readable()
+            t_read.append(time.perf_counter() - t1)
+            export_law_files(law, tmp / "compact" / str(k), law_fmu="native",
+                             identifier=f"ReentryLaw{k}", problem=problem)
+        t_compact = time.perf_counter() - t0
+        fmus = sorted((tmp / "compact").rglob("*.fmu"))
+        sizes = [p.stat().st_size for p in fmus]
+        out["laws"] = len(laws)
+        out["compact_total_MB"] = folder_bytes(tmp / "compact") / 2 ** 20
+        out["native_fmu_KB_mean"] = statistics.mean(sizes) / 1024
+        out["native_fmu_KB_max"] = max(sizes) / 1024
+        out["compact_s_per_law"] = t_compact / len(laws)
+        out["readable_s_per_law_median"] = statistics.median(t_read)
+        out["readable_s_per_law_max"] = max(t_read)
+        t0 = time.perf_counter()
+        for k, law in enumerate(laws[:args.full]):
+            export_law_files(law, tmp / "full" / str(k), law_fmu="python", fmu_dir=args.fmus,
+                             problem=problem, closed_loop=True)
+        t_full = (time.perf_counter() - t0) / max(1, args.full)
+        full_per_law = folder_bytes(tmp / "full") / max(1, args.full)
+        out["full_python_MB_per_law"] = full_per_law / 2 ** 20
+        out["full_python_s_per_law"] = t_full
+        out["size_ratio_full_to_compact"] = full_per_law / (out["compact_total_MB"] * 2 ** 20
+                                                            / len(laws))
+        # one closed-loop flight: pythonfmu controller vs native law (the same law)
+        from descent_fmus.synthesis.cosim import ClosedLoop
+        law = NetworkOperator.load(Path(__file__).resolve().parent.parent / "tests" /
+                                   "reference" / "reentry_best_law.json")
+        native = export_law_files(law, tmp / "flight", law_fmu="native")["controller_fmu"]
+        times = {}
+        for name, ctrl, sv in (("pythonfmu", args.fmus / "NetworkOperatorController.fmu",
+                                law.start_values()), ("native", native, {})):
+            with ClosedLoop(problem.wiring, args.fmus / "Reentry.fmu", ctrl) as loop:
+                loop.run(controller_values=sv)
+                ts = []
+                for _ in range(10):
+                    t1 = time.perf_counter()
+                    loop.run(controller_values=sv)
+                    ts.append(time.perf_counter() - t1)
+            times[name] = statistics.median(ts)
+        out["flight_ms_pythonfmu_controller"] = 1e3 * times["pythonfmu"]
+        out["flight_ms_native_law"] = 1e3 * times["native"]
+        out["flight_speedup"] = times["pythonfmu"] / times["native"]
+    if args.json:
+        print(json.dumps(out, indent=1))
+    else:
+        print(f"{out['laws']} laws exported compact (law.json, law.h/law.c, native FMU): "
+              f"{out['compact_total_MB']:.1f} MB, {out['compact_s_per_law']:.2f} s a law "
+              f"(readable form: median {out['readable_s_per_law_median']:.3f} s, max "
+              f"{out['readable_s_per_law_max']:.2f} s)")
+        print(f"native law FMU: {out['native_fmu_KB_mean']:.0f} KB mean, "
+              f"{out['native_fmu_KB_max']:.0f} KB max (target <= 200 KB)")
+        print(f"old export (pythonfmu controller + closed loop + SSP): "
+              f"{out['full_python_MB_per_law']:.2f} MB and {out['full_python_s_per_law']:.2f} s "
+              f"a law -> {out['size_ratio_full_to_compact']:.0f}x the compact size")
+        print(f"one reentry flight: {out['flight_ms_pythonfmu_controller']:.1f} ms with the "
+              f"pythonfmu controller, {out['flight_ms_native_law']:.1f} ms with the native law "
+              f"({out['flight_speedup']:.1f}x)")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,294 @@
+"""A network-operator law as files: JSON with its readable form, C, the law FMU, the closed loop.
+
+:func:`export_law_files` writes ``law.json`` (the law and its readable form), ``law.h`` /
+``law.c`` (a plain C function, no FMI, for flight software), the law FMU -- native (compiled C,
+no Python in the host: :mod:`synthesis.native`) where a C compiler exists, else the pythonfmu
+``NetworkOperatorController`` with the law as defaults -- and, if asked, the closed-loop FMU and
+SSP of the law's problem, built around that law FMU.  ``descent-fmus export-law`` and a
+synthesis run's export (:class:`LawExport`) use it.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+__all__ = ["LawExport", "choose_law_fmu", "export_law_files", "law_document", "readable_text"]
+
+
+@dataclass(frozen=True)
+class LawExport:
+    """What a synthesis run exports for every Pareto law (``run_synthesis(export=...)``).
+
+    Always ``law.json`` (with the readable form), ``law.h``/``law.c`` and the law FMU.
+
+    Attributes
+    ----------
+    law_fmu : {"auto", "native", "python"}
+        The law FMU: native (compiled C), the pythonfmu controller with the law as defaults, or
+        native where a C compiler exists and pythonfmu otherwise (with a note).
+    closed_loops : bool
+        Also the closed-loop FMU (plant + law FMU) and its SSP file per law (about 1.7 MB a law:
+        each carries the pythonfmu plant).
+    """
+
+    law_fmu: str = "auto"
+    closed_loops: bool = True
+
+    def __post_init__(self):
+        if self.law_fmu not in ("auto", "native", "python"):
+            raise ValueError(f"law_fmu must be 'auto', 'native' or 'python', got "
+                             f"{self.law_fmu!r}")
+
+    @classmethod
+    def of(cls, export) -> "LawExport | None":
+        """``export`` of ``run_synthesis``: True (everything), False/None (nothing) or a
+        LawExport."""
+        if isinstance(export, cls):
+            return export
+        return cls() if export else None
+
+
+def choose_law_fmu(law_fmu: str = "auto") -> tuple[str, str]:
+    """``("native" | "python", note)``: the kind of law FMU to build on this machine.
+
+    ``"auto"`` is native where a C compiler exists; otherwise pythonfmu, and ``note`` says why.
+
+    Raises
+    ------
+    CompilerNotFoundError
+        ``"native"`` asked and no C compiler found.
+    """
+    from descent_fmus.synthesis.native.build import CompilerNotFoundError, find_compiler
+    if law_fmu == "python":
+        return "python", ""
+    if find_compiler() is not None:
+        return "native", ""
+    if law_fmu == "native":
+        raise CompilerNotFoundError("no C compiler found (install gcc or clang, or set CC) to "
+                                    "build a native law FMU; --python exports the pythonfmu "
+                                    "controller instead")
+    return "python", ("no C compiler found (install gcc or clang, or set CC): laws exported "
+                      "as pythonfmu controller FMUs, which need Python in the host")
+
+
+def _readable(law) -> dict:
+    try:
+        return law.readable().to_dict()
+    except Exception as exc:   # SymPy failing on a pathological law: the law is still exported
+        return {"text": law.formula(6), "error": f"{type(exc).__name__}: {exc}"}
+
+
+def readable_text(law) -> str:
+    """The law's readable form as one line (its network-operator print if SymPy fails)."""
+    return _readable(law)["text"]
+
+
+def law_document(law, extra: dict | None = None) -> dict:
+    """``law.json``: the law (``NetworkOperator.to_dict``), its readable form (``readable``:
+    ``text``, ``latex``, ``exact``, ``functions``) and ``extra`` fields."""
+    d = law.to_dict()
+    d["readable"] = _readable(law)
+    d.update(extra or {})
+    return d
+
+
+def _write_text(path: Path, text: str) -> Path:
+    tmp = path.with_name(path.name + ".part")
+    tmp.write_text(text)
+    os.replace(tmp, path)
+    return path
+
+
+def export_law_files(law, dest, law_fmu: str = "auto", fmu_dir=None,
+                     identifier: str | None = None, description: str = "", problem=None,
+                     closed_loop: bool = False, extra: dict | None = None) -> dict:
+    """Write a law's files into the folder ``dest`` (created if absent).
+
+    Parameters
+    ----------
+    law : NetworkOperator
+    dest : path-like
+    law_fmu : {"auto", "native", "python"}
+        See :class:`LawExport`.
+    fmu_dir : path-like, optional
+        Folder of the built FMUs (needed for a pythonfmu law FMU and for the closed loop).
+    identifier : str, optional
+        Model identifier of the native FMU (its file is ``<identifier>.fmu``) and prefix of the
+        C names (default ``NetworkOperatorLaw``).
+    description : str
+    problem : SynthesisProblem, optional
+        The law's problem: its controller FMU (pythonfmu) and, with ``closed_loop``, its wiring
+        and plant FMU.
+    closed_loop : bool
+        Also ``<wiring name>.fmu`` (container: plant + law FMU) and ``<wiring name>.ssp``; the
+        plant parameters the problem sets per initial state stay parameters of the container.
+    extra : dict, optional
+        More fields of ``law.json`` (e.g. the problem's name, the law's objectives).
+
+    Returns
+    -------
+    dict
+        Paths (``law_json``, ``law_h``, ``law_c``, ``controller_fmu`` and, with ``closed_loop``,
+        ``closed_loop_fmu``, ``ssp``), ``law_fmu`` ("native" or "python") and ``note`` (why not
+        native, if so).
+
+    Raises
+    ------
+    CompilerNotFoundError
+        ``law_fmu="native"`` and no C compiler.
+    NativeBuildError, FMUNotFoundError, ValueError
+    """
+    from descent_fmus.synthesis.export import closed_loop_fmu, with_defaults, write_ssp
+    from descent_fmus.synthesis.native.ccode import c_identifier
+    from descent_fmus.synthesis.native.law_fmu import (DEFAULT_IDENTIFIER, build_law_fmu,
+                                                       law_sources)
+    kind, note = choose_law_fmu(law_fmu)
+    if kind == "native" and problem is not None and \
+            problem.wiring.controller != "NetworkOperatorController":
+        # the native law FMU stands in for the generic controller only; a problem's own
+        # controller FMU (e.g. one carrying a sensor estimate) is exported with the law as defaults
+        kind, note = "python", (f"{problem.wiring.controller} does more than the law: exported "
+                                f"as that pythonfmu FMU with the law as defaults")
+    if (kind == "python" or closed_loop) and fmu_dir is None:
+        raise ValueError("a pythonfmu law FMU or a closed loop needs the folder of the built "
+                         "FMUs (fmu_dir)")
+    if closed_loop and problem is None:
+        raise ValueError("a closed-loop FMU needs the law's problem")
+    dest = Path(dest)
+    dest.mkdir(parents=True, exist_ok=True)
+    ident = c_identifier(identifier or DEFAULT_IDENTIFIER)
+    doc = law_document(law, extra)
+    about = doc["readable"]["text"].split("; ")
+    out = {"law_json": str(_write_text(dest / "law.json", json.dumps(doc, indent=1)))}
+    for name, text in law_sources(law, ident, about).items():
+        out[name.replace(".", "_")] = str(_write_text(dest / name, text))
+    what = description or "network-operator law"
+    if kind == "native":
+        ctrl = build_law_fmu(law, dest / f"{ident}.fmu", ident, what, about)
+    else:
+        src = (problem.fmu_paths(fmu_dir)[1] if problem is not None
+               else Path(fmu_dir) / "NetworkOperatorController.fmu")
+        ctrl = with_defaults(src, dest / Path(src).name, law.start_values(),
+                             description=f"{what}: {doc['readable']['text']}"[:2000])
+    out.update(controller_fmu=str(ctrl), law_fmu=kind, note=note)
+    if closed_loop:
+        w = problem.wiring
+        plant_fmu = problem.fmu_paths(fmu_dir)[0]
+        wl = replace(w, description=f"{description or w.description}; law "
+                                    f"{doc['readable']['text']}"[:2000])
+        names = list(dict.fromkeys(k for s in problem.initial_states for k in s))
+        plant_params = tuple((n, "plant", n) for n in names)
+        out["closed_loop_fmu"] = str(closed_loop_fmu(wl, plant_fmu, ctrl, dest / f"{w.name}.fmu",
+                                                     parameters=plant_params))
+        out["ssp"] = str(write_ssp(wl, plant_fmu, ctrl, dest / f"{w.name}.ssp"))
+    return out
+
+
+# -- descent-fmus export-law ---------------------------------------------------------------------
+def add_export_law_command(sub) -> None:
+    """``descent-fmus export-law LAW.json --native|--python --out DIR``."""
+    from descent_fmus.synthesis.cli_common import add_common_options
+    p = sub.add_parser("export-law", help="a law file as a native FMU (C, no Python in the host) "
+                       "or a pythonfmu FMU, with its readable form and law.h/law.c")
+    p.add_argument("law", type=Path, metavar="LAW.json", help="a law file (law.json of a "
+                   "synthesis run, or any NetworkOperator.save)")
+    kind = p.add_mutually_exclusive_group()
+    kind.add_argument("--native", dest="law_fmu", action="store_const", const="native",
+                      help="compiled C FMU (default where a C compiler exists)")
+    kind.add_argument("--python", dest="law_fmu", action="store_const", const="python",
+                      help="the pythonfmu NetworkOperatorController with the law as defaults")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="output folder (must not exist or be empty: nothing is overwritten)")
+    p.add_argument("--name", default=None, metavar="ID",
+                   help="model identifier of the native FMU and prefix of the C names "
+                        "(default NetworkOperatorLaw)")
+    p.add_argument("--closed-loop", action="store_true",
+                   help="also the closed-loop FMU and SSP of the law's problem (plant FMU + "
+                        "this law FMU)")
+    p.add_argument("--problem", default=None, metavar="NAME",
+                   help="the law's registered problem (default: the 'problem' field of the law "
+                        "file); or --problem-file")
+    p.add_argument("--problem-file", type=Path, default=None, metavar="FILE.toml",
+                   help="the law's problem as a problem file")
+    add_common_options(p)
+    p.set_defaults(func=run_export_law, law_fmu=None)
+
+
+def _problem_of(args, doc: dict):
+    from descent_fmus.synthesis.cli_common import CliError, fmu_folder
+    from descent_fmus.synthesis.problem_file import ProblemFileError, load_problem_file
+    from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
+    if args.problem_file is not None:
+        try:
+            return load_problem_file(args.problem_file, fmu_dir=fmu_folder(args))
+        except ProblemFileError as exc:
+            raise CliError(str(exc)) from None
+    name = args.problem or doc.get("problem")
+    if name is None:
+        if args.closed_loop:
+            raise CliError(f"{args.law} names no problem: give --problem NAME or "
+                           f"--problem-file FILE for --closed-loop")
+        return None
+    try:
+        return get_problem(name)
+    except UnknownProblemError as exc:
+        raise CliError(str(exc)) from None
+
+
+def run_export_law(args) -> int:
+    import shutil
+    import sys
+    import tempfile
+
+    from descent_fmus.synthesis.cli_common import CliError, emit, fmu_folder
+    from descent_fmus.synthesis.methods.network_operator import LawFileError, NetworkOperator
+    from descent_fmus.synthesis.native.build import CompilerNotFoundError, NativeBuildError
+    from descent_fmus.synthesis.paths import FMUNotFoundError
+
+    out = args.out
+    if out.exists() and (not out.is_dir() or any(out.iterdir())):
+        raise CliError(f"{out} exists and is not an empty folder; choose another --out "
+                       f"(nothing was overwritten)")
+    try:
+        doc = json.loads(args.law.read_text())
+    except (OSError, json.JSONDecodeError):
+        doc = {}
+    try:
+        law = NetworkOperator.load(args.law)
+    except (LawFileError, OSError) as exc:
+        raise CliError(f"{args.law}: {exc}") from None
+    problem = _problem_of(args, doc if isinstance(doc, dict) else {})
+    try:
+        kind, note = choose_law_fmu(args.law_fmu or "auto")
+    except CompilerNotFoundError as exc:
+        raise CliError(str(exc)) from None
+    if note:
+        print(f"descent-fmus export-law: {note}", file=sys.stderr)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
+    try:
+        files = export_law_files(law, tmp, law_fmu=kind, fmu_dir=fmu_folder(args),
+                                 identifier=args.name, problem=problem,
+                                 closed_loop=args.closed_loop,
+                                 description=f"law {args.law.name}",
+                                 extra={"problem": problem.name} if problem else None)
+        if out.exists():
+            out.rmdir()                 # empty (checked above)
+        mask = os.umask(0)
+        os.umask(mask)
+        tmp.chmod(0o777 & ~mask)        # mkdtemp's folder is private
+        tmp.rename(out)
+    except (NativeBuildError, FMUNotFoundError, ValueError) as exc:
+        raise CliError(str(exc)) from None
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    paths = {k: str(out / Path(v).name) for k, v in files.items()
+             if k not in ("law_fmu", "note")}
+    r = law.readable()
+    summary = dict(paths, law_fmu=kind, note=note, readable=r.to_dict(), out=str(out))
+    lines = [f"law ({kind} FMU) in {out}:"] + [f"  {line}" for line in r.lines()]
+    lines.append(f"  files: {', '.join(sorted(Path(v).name for v in paths.values()))}")
+    emit(args, summary, "\n".join(lines))
+    return 0

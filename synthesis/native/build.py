@@ -1,0 +1,286 @@
+"""Build native FMUs: a model's C sources + the generic FMI 2.0 wrapper, compiled here.
+
+A native FMU holds ``modelDescription.xml`` (the variables, ``<SourceFiles>`` naming the C files
+to compile), ``sources/`` (everything needed to rebuild it: the generic wrapper ``fmi2_cs.c``,
+the model's C files, the FMI 2.0 headers) and ``binaries/<platform>/<identifier>.so`` compiled
+here with the system's C compiler.  No Python is involved at run time: the binary depends on the
+C library and its math library only.  On another platform, ``fmpy compile X.fmu`` (CMake) or any
+FMI tool that builds source FMUs builds it from ``sources/``.
+
+The compiler is ``$CC`` if set, else the first of ``cc``, ``gcc``, ``clang`` on the PATH
+(:func:`find_compiler`); none found is :class:`CompilerNotFoundError` (callers fall back to the
+pythonfmu controller and say so).
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import platform
+import shutil
+import subprocess
+import sys
+import tempfile
+import uuid
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from xml.sax.saxutils import quoteattr
+
+__all__ = ["C_DIR", "Variable", "CompilerNotFoundError", "NativeBuildError", "find_compiler",
+           "platform_folder", "build_fmu", "compile_sources", "COMPILE_FLAGS", "KINDS"]
+
+#: The hand-written C files shipped as package data.
+C_DIR = Path(__file__).resolve().parent / "c"
+#: The FMI 2.0 headers (Modelica Association, 2-clause BSD licence) and the wrapper.
+WRAPPER_FILES = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h",
+                 "native_model.h", "fmi2_cs.c")
+#: Flags of the native build.  -ffp-contract=off: no fused multiply-add, so every operation
+#: rounds as the Python evaluation does; -fvisibility=hidden: only the FMI functions are
+#: exported (they are marked visible by fmi2Functions.h).
+COMPILE_FLAGS = ("-fPIC", "-O2", "-std=c99", "-ffp-contract=off", "-fvisibility=hidden",
+                 "-Wall")
+#: Variable kinds -> (causality, variability, code of native_model.h).
+KINDS = {"input": ("input", "continuous", 0), "output": ("output", "continuous", 1),
+         "fixed": ("parameter", "fixed", 2), "tunable": ("parameter", "tunable", 3)}
+
+
+class CompilerNotFoundError(RuntimeError):
+    """No C compiler on this machine."""
+
+
+class NativeBuildError(RuntimeError):
+    """The C compiler failed on a native FMU's sources."""
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One variable of a native FMU (value references follow the order of the list)."""
+
+    name: str
+    kind: str                 #: "input", "output", "fixed" or "tunable"
+    start: float = 0.0
+    description: str = ""
+    type: str = "Real"        #: "Real" or "Integer"
+
+
+def find_compiler() -> str | None:
+    """Path of the C compiler: ``$CC`` if set (None if that is not found), else cc/gcc/clang."""
+    cc = os.environ.get("CC")
+    if cc:
+        return shutil.which(cc)
+    for name in ("cc", "gcc", "clang"):
+        path = shutil.which(name)
+        if path:
+            return path
+    return None
+
+
+def platform_folder() -> tuple[str, str]:
+    """``(binaries/<folder>, shared-library suffix)`` of this machine (FMI 2.0 names)."""
+    system, bits = sys.platform, "64" if sys.maxsize > 2 ** 32 else "32"
+    if system.startswith("linux"):
+        return f"linux{bits}", ".so"
+    if system == "darwin":
+        return f"darwin{bits}", ".dylib"
+    if system in ("win32", "cygwin"):
+        return f"win{bits}", ".dll"
+    raise NativeBuildError(f"no FMI 2.0 binary folder for platform {system} "
+                           f"({platform.machine()})")
+
+
+def _run(cmd, what) -> None:
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    if res.returncode != 0:
+        tail = "\n".join((res.stderr or res.stdout).strip().splitlines()[-12:])
+        raise NativeBuildError(f"{Path(cmd[0]).name} failed on {what}:\n{tail}")
+
+
+# Objects of the hand-written files (the same for every FMU), compiled once per process: a
+# synthesis run exports hundreds of laws.  Keyed by compiler, flags and the sources' content.
+_OBJECTS: dict = {}
+_OBJECT_DIR: list = []
+
+
+def _cached_object(cc: str, sources_dir: Path, name: str) -> Path:
+    headers = [sources_dir / h for h in WRAPPER_FILES if h.endswith(".h")]
+    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, (sources_dir / name).read_bytes(),
+                               [(h.name, h.read_bytes()) for h in headers])).encode()).hexdigest()
+    if key not in _OBJECTS:
+        if not _OBJECT_DIR:
+            _OBJECT_DIR.append(Path(tempfile.mkdtemp(prefix="descent_native_objects_")))
+            import atexit
+            atexit.register(shutil.rmtree, _OBJECT_DIR[0], True)
+        obj = _OBJECT_DIR[0] / f"{key[:20]}.o"
+        _run([cc, *COMPILE_FLAGS, "-c", "-I", str(sources_dir), str(sources_dir / name),
+              "-o", str(obj)], name)
+        _OBJECTS[key] = obj
+    return _OBJECTS[key]
+
+
+def compile_sources(sources_dir: Path, files, library: Path, compiler: str | None = None,
+                    cached=()) -> Path:
+    """Compile ``files`` of ``sources_dir`` into the shared library ``library``.
+
+    ``cached``: those of ``files`` whose object may be reused from an earlier build in this
+    process (the generic wrapper: it includes only the headers of :data:`WRAPPER_FILES`, which
+    are part of the key).
+
+    Raises
+    ------
+    CompilerNotFoundError, NativeBuildError
+    """
+    cc = compiler or find_compiler()
+    if cc is None:
+        raise CompilerNotFoundError(
+            "no C compiler found (" + (f"CC={os.environ['CC']} is not on the PATH"
+                                       if os.environ.get("CC") else "looked for cc, gcc, clang")
+            + "): install one (Debian/Ubuntu: apt-get install gcc) to build native FMUs")
+    library.parent.mkdir(parents=True, exist_ok=True)
+    # every symbol resolved at link time (a missing function is a build error, not a load error)
+    extra = ["-dynamiclib"] if sys.platform == "darwin" else ["-shared", "-Wl,-z,defs"]
+    inputs = [str(_cached_object(cc, sources_dir, f)) if f in cached else str(sources_dir / f)
+              for f in files]
+    _run([cc, *COMPILE_FLAGS, *extra, "-I", str(sources_dir), *inputs, "-o", str(library),
+          "-lm"], ", ".join(files))
+    if not library.is_file():
+        raise NativeBuildError(f"{Path(cc).name} wrote no {library.name}")
+    return library
+
+
+def _xml(identifier, guid, description, variables, source_files, experiment) -> str:
+    out = ['<?xml version="1.0" encoding="UTF-8"?>',
+           f'<fmiModelDescription fmiVersion="2.0" modelName={quoteattr(identifier)} '
+           f'guid={quoteattr(guid)} description={quoteattr(description)} '
+           f'generationTool="descent-fmus (native C export)" '
+           f'variableNamingConvention="structured" numberOfEventIndicators="0">',
+           f'  <CoSimulation modelIdentifier={quoteattr(identifier)} needsExecutionTool="false" '
+           f'canHandleVariableCommunicationStepSize="true" canInterpolateInputs="false" '
+           f'maxOutputDerivativeOrder="0" canRunAsynchronuously="false" '
+           f'canBeInstantiatedOnlyOncePerProcess="false" '
+           f'canNotUseMemoryManagementFunctions="true" canGetAndSetFMUstate="false" '
+           f'canSerializeFMUstate="false" providesDirectionalDerivative="false">',
+           '    <SourceFiles>']
+    out += [f'      <File name={quoteattr(f)}/>' for f in source_files]
+    out += ['    </SourceFiles>', '  </CoSimulation>',
+            '  <LogCategories>',
+            '    <Category name="logStatusError" description="errors (invalid parameters, '
+            'calls in the wrong state)"/>',
+            '  </LogCategories>']
+    if experiment:
+        out.append("  <DefaultExperiment " + " ".join(f"{k}={quoteattr(repr(float(v)))}"
+                                                       for k, v in experiment.items()) + "/>")
+    out.append("  <ModelVariables>")
+    outputs = []
+    for index, v in enumerate(variables, 1):
+        causality, variability, _ = KINDS[v.kind]
+        if v.type == "Integer" and variability == "continuous":
+            variability = "discrete"
+        attrs = (f'name={quoteattr(v.name)} valueReference="{index - 1}" '
+                 f'description={quoteattr(v.description)} causality="{causality}" '
+                 f'variability="{variability}"')
+        if v.kind == "output":
+            outputs.append(index)
+            out.append(f'    <ScalarVariable {attrs} initial="calculated"><{v.type}/>'
+                       f'</ScalarVariable>')
+        else:
+            start = str(int(v.start)) if v.type == "Integer" else repr(float(v.start))
+            init = ' initial="exact"' if v.kind != "input" else ""
+            out.append(f'    <ScalarVariable {attrs}{init}><{v.type} start="{start}"/>'
+                       f'</ScalarVariable>')
+    out.append("  </ModelVariables>")
+    out.append("  <ModelStructure>")
+    if outputs:
+        out.append("    <Outputs>")
+        out += [f'      <Unknown index="{i}"/>' for i in outputs]
+        out.append("    </Outputs>")
+        out.append("    <InitialUnknowns>")
+        out += [f'      <Unknown index="{i}"/>' for i in outputs]
+        out.append("    </InitialUnknowns>")
+    out.append("  </ModelStructure>")
+    out.append("</fmiModelDescription>")
+    return "\n".join(out) + "\n"
+
+
+def _with_units(xml: str) -> bytes:
+    """The model description with the unit of every Real variable (from the bracket that ends
+    its description, as for the pythonfmu FMUs) and its ``<UnitDefinitions>``."""
+    from xml.etree import ElementTree as ET
+
+    from descent_fmus.synthesis.export import units_into_model_description
+    root = ET.fromstring(xml)
+    units_into_model_description(root)
+    ET.indent(root, space="  ")
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+
+def _kind_codes(variables, type_: str) -> str:
+    codes = [str(KINDS[v.kind][2]) for v in variables if v.type == type_]
+    return ", ".join(codes) or "0"
+
+
+def build_fmu(dest, identifier: str, description: str, variables, generated: dict,
+              model_files, experiment: dict | None = None, compiler: str | None = None) -> Path:
+    """Write the native FMU ``dest``: sources, compiled binary, model description.
+
+    Parameters
+    ----------
+    dest : path-like
+        The ``.fmu`` file (written atomically: a temporary file renamed at the end).
+    identifier : str
+        Model identifier (a C identifier; also the binary's name).
+    description : str
+    variables : sequence of Variable
+        In value-reference order: the Reals first, then the Integers.
+    generated : dict of str -> str
+        Generated source files (name -> text), e.g. ``law.c``; ``model_config.h`` gets the GUID
+        and start values appended by this function.
+    model_files : sequence of str
+        Hand-written model files of :data:`C_DIR` to ship (e.g. ``law_model.c``).
+    experiment : dict, optional
+        Default experiment (``startTime``, ``stopTime``, ``stepSize``).
+
+    Raises
+    ------
+    CompilerNotFoundError, NativeBuildError
+    """
+    dest = Path(dest)
+    reals = [v for v in variables if v.type == "Real"]
+    ints = [v for v in variables if v.type == "Integer"]
+    if [v.type for v in variables] != ["Real"] * len(reals) + ["Integer"] * len(ints):
+        raise ValueError("native FMU variables: the Reals first, then the Integers")
+    config = generated.get("model_config.h", "")
+    # the GUID identifies the FMU's content: same sources, same variables -> same GUID
+    digest = hashlib.sha256(repr((identifier, description, variables, sorted(generated.items()),
+                                  list(model_files))).encode()).hexdigest()
+    guid = "{" + str(uuid.UUID(digest[:32])) + "}"
+    config += (f'\n#define MODEL_CONFIG_GUID "{guid}"\n'
+               f"#define MODEL_CONFIG_REAL_START "
+               + ", ".join(repr(float(v.start)) for v in reals) + "\n"
+               f"#define MODEL_CONFIG_REAL_KIND {_kind_codes(variables, 'Real')}\n"
+               f"#define MODEL_CONFIG_INTEGER_START "
+               + (", ".join(str(int(v.start)) for v in ints) or "0") + "\n"
+               f"#define MODEL_CONFIG_INTEGER_KIND {_kind_codes(variables, 'Integer')}\n")
+    files = dict(generated, **{"model_config.h": config})
+    c_files = ["fmi2_cs.c"] + [f for f in model_files if f.endswith(".c")] + \
+        sorted(f for f in files if f.endswith(".c"))
+    folder, suffix = platform_folder()
+    with tempfile.TemporaryDirectory(prefix="descent_native_") as tmp:
+        root = Path(tmp) / "fmu"
+        src = root / "sources"
+        src.mkdir(parents=True)
+        for name in list(WRAPPER_FILES) + list(model_files):
+            shutil.copy(C_DIR / name, src / name)
+        for name, text in files.items():
+            (src / name).write_text(text)
+        compile_sources(src, c_files, root / "binaries" / folder / (identifier + suffix),
+                        compiler, cached=["fmi2_cs.c"])
+        (root / "modelDescription.xml").write_bytes(
+            _with_units(_xml(identifier, guid, description, variables, c_files, experiment)))
+        dest.parent.mkdir(parents=True, exist_ok=True)
+        part = dest.with_name(dest.name + ".part")
+        with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
+            for path in sorted(root.rglob("*")):
+                if path.is_file():
+                    z.write(path, path.relative_to(root).as_posix())
+        os.replace(part, dest)
+    return dest

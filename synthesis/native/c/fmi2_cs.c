@@ -1,0 +1,537 @@
+/* fmi2_cs.c -- the generic FMI 2.0 co-simulation wrapper of every descent-fmus native FMU.
+ *
+ * Written once; a native FMU is this file + its model (model.c, see native_model.h), compiled
+ * into one shared library.  Everything the model does not decide lives here: instances, the
+ * FMI 2.0 state machine (instantiated -> initialisation -> stepping -> terminated), get/set by
+ * value reference with the causality rules, doStep, reset and logging.
+ *
+ * Outputs are computed lazily: any set or step marks them stale, and the next read of an output
+ * recomputes them from the current inputs, parameters and time (a static law has direct
+ * feed-through, so a master reading u right after setting x gets phi(x)).
+ *
+ * Errors (an unknown value reference, setting an output, a fixed parameter set while stepping,
+ * an invalid parameter at exitInitializationMode) return fmi2Error and are logged through the
+ * host's logger with category logStatusError; the instance stays usable after fmi2Reset.
+ *
+ * descent-fmus (MIT licence).
+ */
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+#include "native_model.h"
+
+typedef enum { ST_INSTANTIATED, ST_INIT, ST_STEP, ST_TERMINATED, ST_ERROR } Mode;
+
+typedef struct {
+    ModelState s;
+    Mode mode;
+    int stale;                      /* outputs must be recomputed */
+    int sampling;                   /* sample_period > 0 */
+    int holding;                    /* between two samples: outputs held, inputs ignored */
+    int sampled_once;               /* sample_t is set */
+    double sample_t;                /* time of the last sample [s] */
+    int logging;
+    char *name;
+    fmi2CallbackLogger logger;
+    fmi2ComponentEnvironment env;
+} Instance;
+
+/* log an error through the host's logger: "<instance>: <message>" */
+static void log_error(Instance *c, const char *fmt, ...)
+{
+    char msg[600], text[512];
+    va_list args;
+    if (c == NULL || c->logger == NULL)
+        return;
+    va_start(args, fmt);
+    vsnprintf(text, sizeof text, fmt, args);
+    va_end(args);
+    snprintf(msg, sizeof msg, "%s: %s", c->name, text);
+    /* the message is passed as the format itself: hosts that ignore the variadic arguments
+       (fmpy) show it as it is; so it must not contain a conversion */
+    for (char *p = msg; *p; p++)
+        if (*p == '%')
+            *p = '?';
+    c->logger(c->env, c->name, fmi2Error, "logStatusError", msg);
+}
+
+static void set_starts(Instance *c)
+{
+    memcpy(c->s.r, MODEL_REAL_START, sizeof(double) * (size_t)MODEL_N_REAL);
+    if (MODEL_N_INTEGER > 0)
+        memcpy(c->s.i, MODEL_INTEGER_START, sizeof(int) * (size_t)MODEL_N_INTEGER);
+    c->s.time = 0.0;
+    c->s.last_step = 0.0;
+    c->stale = 1;
+    c->sampling = c->holding = c->sampled_once = 0;
+    c->sample_t = 0.0;
+}
+
+/* -- common functions ------------------------------------------------------------------- */
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn, size_t n,
+                               const fmi2String categories[])
+{
+    (void)n;
+    (void)categories;
+    if (comp == NULL)
+        return fmi2Error;
+    ((Instance *)comp)->logging = loggingOn;
+    return fmi2OK;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String guid,
+                              fmi2String resourceLocation,
+                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
+                              fmi2Boolean loggingOn)
+{
+    Instance tmp, *c;
+    (void)resourceLocation;
+    (void)visible;
+    memset(&tmp, 0, sizeof tmp);
+    tmp.name = (char *)(instanceName ? instanceName : "");
+    if (functions != NULL) {
+        tmp.logger = functions->logger;
+        tmp.env = functions->componentEnvironment;
+    }
+    if (fmuType != fmi2CoSimulation) {
+        log_error(&tmp, "this FMU supports co-simulation only");
+        return NULL;
+    }
+    if (guid == NULL || strcmp(guid, MODEL_GUID) != 0) {
+        log_error(&tmp, "wrong GUID %s, expected %s (the modelDescription.xml of another FMU?)",
+                  guid ? guid : "(null)", MODEL_GUID);
+        return NULL;
+    }
+    c = (Instance *)calloc(1, sizeof(Instance));
+    if (c == NULL)
+        return NULL;
+    *c = tmp;
+    c->name = (char *)malloc(strlen(tmp.name) + 1);
+    c->s.r = (double *)calloc((size_t)MODEL_N_REAL + 1, sizeof(double));
+    c->s.i = (int *)calloc((size_t)MODEL_N_INTEGER + 1, sizeof(int));
+    if (c->name == NULL || c->s.r == NULL || c->s.i == NULL) {
+        free(c->name);
+        free(c->s.r);
+        free(c->s.i);
+        free(c);
+        return NULL;
+    }
+    strcpy(c->name, tmp.name);
+    c->logging = loggingOn;
+    c->mode = ST_INSTANTIATED;
+    set_starts(c);
+    return c;
+}
+
+void fmi2FreeInstance(fmi2Component comp)
+{
+    Instance *c = (Instance *)comp;
+    if (c == NULL)
+        return;
+    free(c->s.r);
+    free(c->s.i);
+    free(c->name);
+    free(c);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
+                               fmi2Real tolerance, fmi2Real startTime,
+                               fmi2Boolean stopTimeDefined, fmi2Real stopTime)
+{
+    Instance *c = (Instance *)comp;
+    (void)toleranceDefined;
+    (void)tolerance;
+    (void)stopTimeDefined;
+    (void)stopTime;
+    if (c == NULL)
+        return fmi2Error;
+    if (c->mode != ST_INSTANTIATED) {
+        log_error(c, "fmi2SetupExperiment is allowed only after instantiation or reset");
+        return fmi2Error;
+    }
+    c->s.time = startTime;
+    c->stale = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component comp)
+{
+    Instance *c = (Instance *)comp;
+    if (c == NULL)
+        return fmi2Error;
+    if (c->mode != ST_INSTANTIATED) {
+        log_error(c, "fmi2EnterInitializationMode is allowed only after instantiation or "
+                  "reset");
+        return fmi2Error;
+    }
+    c->mode = ST_INIT;
+    c->stale = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
+{
+    Instance *c = (Instance *)comp;
+    const char *bad;
+    if (c == NULL)
+        return fmi2Error;
+    if (c->mode != ST_INIT) {
+        log_error(c, "fmi2ExitInitializationMode outside initialisation mode");
+        return fmi2Error;
+    }
+    bad = model_check(&c->s);
+    if (bad == NULL && MODEL_SAMPLE_PERIOD >= 0) {
+        double period = c->s.r[MODEL_SAMPLE_PERIOD];
+        static char msg[120];
+        if (!isfinite(period) || period < 0.0) {
+            snprintf(msg, sizeof msg, "parameter sample_period must be %s, got %g",
+                     isfinite(period) ? ">= 0" : "finite", period);
+            bad = msg;
+        }
+        c->sampling = period > 0.0;
+    }
+    if (bad != NULL) {
+        log_error(c, "%s", bad);
+        c->mode = ST_ERROR;
+        return fmi2Error;
+    }
+    c->holding = c->sampled_once = 0;
+    c->mode = ST_STEP;
+    c->stale = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Terminate(fmi2Component comp)
+{
+    Instance *c = (Instance *)comp;
+    if (c == NULL)
+        return fmi2Error;
+    c->mode = ST_TERMINATED;
+    return fmi2OK;
+}
+
+fmi2Status fmi2Reset(fmi2Component comp)
+{
+    Instance *c = (Instance *)comp;
+    if (c == NULL)
+        return fmi2Error;
+    set_starts(c);
+    c->mode = ST_INSTANTIATED;
+    return fmi2OK;
+}
+
+/* -- get / set --------------------------------------------------------------------------- */
+static int real_index(Instance *c, fmi2ValueReference vr)
+{
+    if (vr >= (fmi2ValueReference)MODEL_N_REAL) {
+        log_error(c, "no Real variable has value reference %lu", (unsigned long)vr);
+        return -1;
+    }
+    return (int)vr;
+}
+
+static int integer_index(Instance *c, fmi2ValueReference vr)
+{
+    if (vr < (fmi2ValueReference)MODEL_N_REAL
+        || vr >= (fmi2ValueReference)(MODEL_N_REAL + MODEL_N_INTEGER)) {
+        log_error(c, "no Integer variable has value reference %lu", (unsigned long)vr);
+        return -1;
+    }
+    return (int)vr - MODEL_N_REAL;
+}
+
+/* may a variable of this kind be set now? */
+static int settable(Instance *c, unsigned char kind, fmi2ValueReference vr)
+{
+    if (kind == KIND_OUTPUT) {
+        log_error(c, "value reference %lu is an output and cannot be set",
+                  (unsigned long)vr);
+        return 0;
+    }
+    if (kind == KIND_FIXED && c->mode != ST_INSTANTIATED && c->mode != ST_INIT) {
+        log_error(c, "value reference %lu is a fixed parameter: set it before the end of "
+                  "initialisation (or after fmi2Reset)", (unsigned long)vr);
+        return 0;
+    }
+    return 1;
+}
+
+static void refresh(Instance *c)
+{
+    if (c->stale && !c->holding) {
+        model_outputs(&c->s);
+        c->stale = 0;
+    }
+}
+
+fmi2Status fmi2GetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                       fmi2Real value[])
+{
+    Instance *c = (Instance *)comp;
+    size_t k;
+    if (c == NULL || (n > 0 && (vr == NULL || value == NULL)))
+        return fmi2Error;
+    refresh(c);
+    for (k = 0; k < n; k++) {
+        int j = real_index(c, vr[k]);
+        if (j < 0)
+            return fmi2Error;
+        value[k] = c->s.r[j];
+    }
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetInteger(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                          fmi2Integer value[])
+{
+    Instance *c = (Instance *)comp;
+    size_t k;
+    if (c == NULL || (n > 0 && (vr == NULL || value == NULL)))
+        return fmi2Error;
+    for (k = 0; k < n; k++) {
+        int j = integer_index(c, vr[k]);
+        if (j < 0)
+            return fmi2Error;
+        value[k] = c->s.i[j];
+    }
+    return fmi2OK;
+}
+
+/* Boolean and String variables: a native model has none */
+static fmi2Status none_of(fmi2Component comp, size_t n, const char *type)
+{
+    if (n == 0)
+        return fmi2OK;
+    log_error((Instance *)comp, "this FMU has no %s variables", type);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetBoolean(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                          fmi2Boolean value[])
+{
+    (void)vr;
+    (void)value;
+    return none_of(comp, n, "Boolean");
+}
+
+fmi2Status fmi2GetString(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                         fmi2String value[])
+{
+    (void)vr;
+    (void)value;
+    return none_of(comp, n, "String");
+}
+
+fmi2Status fmi2SetReal(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                       const fmi2Real value[])
+{
+    Instance *c = (Instance *)comp;
+    size_t k;
+    if (c == NULL || (n > 0 && (vr == NULL || value == NULL)))
+        return fmi2Error;
+    for (k = 0; k < n; k++) {
+        int j = real_index(c, vr[k]);
+        if (j < 0 || !settable(c, MODEL_REAL_KIND[j], vr[k]))
+            return fmi2Error;
+        if (c->holding && MODEL_REAL_KIND[j] == KIND_INPUT)
+            continue;                       /* between samples the inputs are not read */
+        c->s.r[j] = value[k];
+    }
+    c->stale = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetInteger(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                          const fmi2Integer value[])
+{
+    Instance *c = (Instance *)comp;
+    size_t k;
+    if (c == NULL || (n > 0 && (vr == NULL || value == NULL)))
+        return fmi2Error;
+    for (k = 0; k < n; k++) {
+        int j = integer_index(c, vr[k]);
+        if (j < 0 || !settable(c, MODEL_INTEGER_KIND[j], vr[k]))
+            return fmi2Error;
+        c->s.i[j] = value[k];
+    }
+    c->stale = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetBoolean(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                          const fmi2Boolean value[])
+{
+    (void)vr;
+    (void)value;
+    return none_of(comp, n, "Boolean");
+}
+
+fmi2Status fmi2SetString(fmi2Component comp, const fmi2ValueReference vr[], size_t n,
+                         const fmi2String value[])
+{
+    (void)vr;
+    (void)value;
+    return none_of(comp, n, "String");
+}
+
+/* -- unsupported optional features (capability flags false in modelDescription.xml) ------- */
+static fmi2Status unsupported(fmi2Component comp, const char *what)
+{
+    log_error((Instance *)comp, "%s is not supported by this FMU", what);
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s)
+{
+    (void)s;
+    return unsupported(c, "fmi2GetFMUstate");
+}
+
+fmi2Status fmi2SetFMUstate(fmi2Component c, fmi2FMUstate s)
+{
+    (void)s;
+    return unsupported(c, "fmi2SetFMUstate");
+}
+
+fmi2Status fmi2FreeFMUstate(fmi2Component c, fmi2FMUstate *s)
+{
+    (void)s;
+    return unsupported(c, "fmi2FreeFMUstate");
+}
+
+fmi2Status fmi2SerializedFMUstateSize(fmi2Component c, fmi2FMUstate s, size_t *n)
+{
+    (void)s;
+    (void)n;
+    return unsupported(c, "fmi2SerializedFMUstateSize");
+}
+
+fmi2Status fmi2SerializeFMUstate(fmi2Component c, fmi2FMUstate s, fmi2Byte b[], size_t n)
+{
+    (void)s;
+    (void)b;
+    (void)n;
+    return unsupported(c, "fmi2SerializeFMUstate");
+}
+
+fmi2Status fmi2DeSerializeFMUstate(fmi2Component c, const fmi2Byte b[], size_t n,
+                                   fmi2FMUstate *s)
+{
+    (void)s;
+    (void)b;
+    (void)n;
+    return unsupported(c, "fmi2DeSerializeFMUstate");
+}
+
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component c, const fmi2ValueReference u[], size_t nu,
+                                        const fmi2ValueReference z[], size_t nz,
+                                        const fmi2Real du[], fmi2Real dz[])
+{
+    (void)u; (void)nu; (void)z; (void)nz; (void)du; (void)dz;
+    return unsupported(c, "fmi2GetDirectionalDerivative");
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                                       const fmi2Integer order[], const fmi2Real value[])
+{
+    (void)vr; (void)n; (void)order; (void)value;
+    return unsupported(c, "fmi2SetRealInputDerivatives");
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component c, const fmi2ValueReference vr[],
+                                        size_t n, const fmi2Integer order[], fmi2Real value[])
+{
+    (void)vr; (void)n; (void)order; (void)value;
+    return unsupported(c, "fmi2GetRealOutputDerivatives");
+}
+
+fmi2Status fmi2CancelStep(fmi2Component c) { return unsupported(c, "fmi2CancelStep"); }
+
+/* -- stepping ---------------------------------------------------------------------------- */
+fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint)
+{
+    Instance *c = (Instance *)comp;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    if (c == NULL)
+        return fmi2Error;
+    if (c->mode != ST_STEP) {
+        log_error(c, "fmi2DoStep before fmi2ExitInitializationMode (or after an error)");
+        return fmi2Error;
+    }
+    if (!(h >= 0.0)) {
+        log_error(c, "negative communication step size %g", h);
+        return fmi2Error;
+    }
+    if (c->sampling) {
+        /* sampled: hold the outputs of the last sample until a step ends sample_period or more
+           after it; that step is the model's step over the whole interval since the sample */
+        double t1 = t + h, elapsed;
+        if (!c->sampled_once) {
+            c->sample_t = t;
+            c->sampled_once = 1;
+        }
+        if (!c->holding) {
+            refresh(c);
+            c->holding = 1;
+        }
+        elapsed = t1 - c->sample_t;
+        if (elapsed < c->s.r[MODEL_SAMPLE_PERIOD] * (1.0 - 1e-9))
+            return fmi2OK;
+        t = c->sample_t;
+        h = elapsed;
+        c->sample_t = t1;
+        c->holding = 0;
+    }
+    c->s.time = t + h;
+    if (h > 0.0)
+        c->s.last_step = h;
+    c->stale = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component c, const fmi2StatusKind k, fmi2Status *v)
+{
+    (void)k;
+    (void)v;
+    return unsupported(c, "fmi2GetStatus");
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component comp, const fmi2StatusKind k, fmi2Real *v)
+{
+    Instance *c = (Instance *)comp;
+    if (c != NULL && v != NULL && k == fmi2LastSuccessfulTime) {
+        *v = c->s.time;
+        return fmi2OK;
+    }
+    return unsupported(comp, "fmi2GetRealStatus");
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component c, const fmi2StatusKind k, fmi2Integer *v)
+{
+    (void)k;
+    (void)v;
+    return unsupported(c, "fmi2GetIntegerStatus");
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component c, const fmi2StatusKind k, fmi2Boolean *v)
+{
+    (void)k;
+    (void)v;
+    return unsupported(c, "fmi2GetBooleanStatus");
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component c, const fmi2StatusKind k, fmi2String *v)
+{
+    (void)k;
+    (void)v;
+    return unsupported(c, "fmi2GetStringStatus");
+}

@@ -1,0 +1,46 @@
+/* native_model.h -- what a model of a descent-fmus native FMU gives the generic FMI 2.0
+ * co-simulation wrapper (fmi2_cs.c).
+ *
+ * A model is a set of Real and Integer variables (value references 0..N_REAL-1 for the Reals,
+ * N_REAL..N_REAL+N_INTEGER-1 for the Integers, in the order of modelDescription.xml), their
+ * start values and kinds, and two functions: a parameter check and the computation of the
+ * outputs from the inputs, the parameters and the time.  The wrapper does everything else
+ * (instances, modes, get/set, steps, logging), once for every native export.
+ *
+ * descent-fmus (MIT licence).
+ */
+#ifndef DESCENT_NATIVE_MODEL_H
+#define DESCENT_NATIVE_MODEL_H
+
+/* kinds of variables (causality and variability) */
+#define KIND_INPUT 0         /* causality input, continuous */
+#define KIND_OUTPUT 1        /* causality output */
+#define KIND_FIXED 2         /* parameter, fixed: set before/while initialising only */
+#define KIND_TUNABLE 3       /* parameter, tunable: also between steps */
+
+typedef struct {
+    double *r;               /* Real values, by value reference */
+    int *i;                  /* Integer values, by value reference - N_REAL */
+    double time;             /* current communication point [s] */
+    double last_step;        /* size of the last doStep > 0 [s]; 0 before the first */
+} ModelState;
+
+extern const char MODEL_GUID[];
+/* value reference of the Real parameter sample_period of a sampled controller, or -1: with a
+   period Ts > 0 the wrapper holds the outputs and ignores the inputs between samples (a
+   communication step that ends Ts or more after the last sample is the model's next step) */
+extern const int MODEL_SAMPLE_PERIOD;
+extern const int MODEL_N_REAL, MODEL_N_INTEGER;
+extern const double MODEL_REAL_START[];
+extern const int MODEL_INTEGER_START[];
+extern const unsigned char MODEL_REAL_KIND[], MODEL_INTEGER_KIND[];
+
+/* NULL if the parameters are valid, else a message naming the offending one (the model's own
+ * static buffer) */
+const char *model_check(const ModelState *s);
+
+/* the outputs (Reals of KIND_OUTPUT) from the inputs, the parameters and the time; never NaN or
+ * inf */
+void model_outputs(ModelState *s);
+
+#endif
