@@ -24,7 +24,13 @@ Departures from the lab algorithm (the authors' Free-Pascal programs), each for 
   few penalised laws (a flight that never reaches hf) do not flatten the normalisation;
 * an external archive keeps the non-dominated laws of the whole run (capped by crowding): an
   epoch re-reads every variation list against the new basis and would otherwise lose good laws;
-  the result of a run is the archive.
+  the result of a run is the archive;
+* optional parameter refinement (``refine_evals > 0``): after the initial population and after
+  every epoch, CMA-ES (:class:`synthesis.methods.policy_search.CMA`) tunes the parameters q of
+  the best members by a single-objective target (distinct structures), on the Gray code's grid;
+  the best refined q replaces the member's, and a structure refined again continues its
+  CMA-ES.  The Gray-coded bit flips search q poorly on the rugged landscapes of closed-loop
+  laws; CMA-ES adapts its steps and their correlations.
 
 References
 ----------
@@ -33,6 +39,7 @@ method in control problems", Vestnik RUDN, 2007.
 """
 from __future__ import annotations
 
+import hashlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -40,6 +47,14 @@ import numpy as np
 from descent_fmus.synthesis.methods.pareto import crowding_distance, dominance_counts
 
 __all__ = ["GrayCodec", "StructureCodec", "VariationalGA", "GAConfig"]
+
+
+def _bits_text(bits) -> str:
+    return "".join(map(str, np.asarray(bits).tolist()))
+
+
+def _bits_array(text: str) -> np.ndarray:
+    return (np.frombuffer(text.encode(), dtype=np.uint8) - ord("0")).copy()
 
 
 # -- parameters: Gray-coded bit strings ---------------------------------------------------------
@@ -143,6 +158,11 @@ class GAConfig:
     alpha: float = 0.4          #: crossover probability (1 + alpha Lh) / (1 + Lh)
     ksearch: int = 4            #: tournament size for parent 1
     elite_trim: int = 4         #: individuals whose variation lists are trimmed per epoch
+    refine_evals: int = 0       #: CMA-ES evaluations per refined law at each epoch (0 = off)
+    refine_laws: int = 1        #: laws refined per epoch: the best by the target (distinct
+                                #: structures)
+    refine_sigma: float = 0.3   #: initial CMA-ES step, relative to each parameter's size
+    refine_popsize: int = 0     #: CMA-ES candidates per generation (0 = pycma's default)
 
     def __post_init__(self):
         if self.population < 4:
@@ -151,6 +171,10 @@ class GAConfig:
             raise ValueError(f"crossovers must be >= 1, got {self.crossovers}")
         if self.lchr < 0 or self.epoch < 1 or not 0 <= self.p_mutation <= 1:
             raise ValueError("need lchr >= 0, epoch >= 1 and 0 <= p_mutation <= 1")
+        if self.refine_evals < 0 or self.refine_laws < 1 or not self.refine_sigma > 0 \
+                or self.refine_popsize < 0:
+            raise ValueError("need refine_evals >= 0, refine_laws >= 1, refine_sigma > 0 and "
+                             "refine_popsize >= 0")
 
 
 @dataclass
@@ -182,8 +206,14 @@ class VariationalGA:
 
     def __init__(self, params: GrayCodec, q0, rng: np.random.Generator, config: GAConfig,
                  structure: StructureCodec | None = None, psi0=None, decode=None,
-                 archive_max: int = 200):
+                 archive_max: int = 200, target=None):
         self.params, self.cfg, self.rng = params, config, rng
+        if config.refine_evals and target is None:
+            raise ValueError("parameter refinement (refine_evals > 0) needs a target")
+        self.target = target
+        self._refine = None           # the running CMA-ES refinements (see _start_refine)
+        self._refine_due = False
+        self._cma_pool = {}           # structure key -> (CMA, bits of its best q) to continue
         self.archive_max = archive_max
         self.structure = structure
         self.psi0 = None if psi0 is None else np.array(psi0, dtype=int)
@@ -225,6 +255,11 @@ class VariationalGA:
     # -- ask / tell -----------------------------------------------------------------------
     def ask(self) -> list:
         """Candidates to evaluate next (the initial population, children, or re-evaluations)."""
+        if self._pending is None and self._refine_due and self._refine is None:
+            self._refine_due = False
+            self._start_refine()
+        if self._pending is None and self._refine is not None:
+            self._pending = ("refine", self._refine_members())
         if self._pending is None:
             if self.generation > 0 and self.generation % self.cfg.epoch == 0 \
                     and self.structure is not None and self._epoch_due:
@@ -251,6 +286,7 @@ class VariationalGA:
         if phase in ("init", "epoch"):
             self.pop = members
             self.lh = dominance_counts(self.F)
+            self._refine_due = self.cfg.refine_evals > 0
             if phase == "epoch":
                 self._pending_trim = self._trim_candidates()
                 if self._pending_trim:
@@ -259,6 +295,9 @@ class VariationalGA:
             return
         if phase == "trim":
             self._finish_trim(members)
+            return
+        if phase == "refine":
+            self._tell_refine(members, F)
             return
         for child in members:
             self._insert(child)
@@ -301,7 +340,8 @@ class VariationalGA:
         ``evaluate(candidates) -> F`` (rows); ``callback(ga)`` after every generation.
         """
         target = self.generation + generations
-        while self.generation < target or self._pending is not None or not self.pop:
+        while self.generation < target or self._pending is not None or not self.pop \
+                or self._refine is not None:
             cands = self.ask()
             self.tell(evaluate(cands))
             if callback is not None and self._pending is None:
@@ -426,6 +466,121 @@ class VariationalGA:
             self.lh = dominance_counts(self.F)
         self._pending_trim = []
 
+    # -- parameter refinement by CMA-ES ----------------------------------------------------
+    def _start_refine(self) -> None:
+        """CMA-ES on the parameters of the best members by the target with distinct structures
+        (``refine_laws`` of them; the basis among them if it is one of the best),
+        ``refine_evals`` each.  A structure refined before continues its CMA-ES (mean, step
+        size and covariance kept: one long search per structure rather than restarts);
+        otherwise a new one starts at the member's q."""
+        F = self.F
+        order = np.argsort(self.target.scalar(F), kind="stable")
+        picks, seen = [], set()
+        for k in order:
+            if len(picks) >= self.cfg.refine_laws:
+                break
+            key = self._structure_key(self.pop[int(k)])
+            if key not in seen:
+                seen.add(key)
+                picks.append(int(k))
+        searches = []
+        for k in picks:
+            seed = int(self.rng.integers(0, 2 ** 31 - 1))
+            m = self.pop[k]
+            old = self._cma_pool.pop(self._structure_key(m), None)
+            if old is not None and old[0].sigma >= 1e-3 * self.cfg.refine_sigma:
+                searches.append(old[0])
+            else:
+                searches.append(self._new_cma(self.params.decode(m.bits), seed))
+        self._refine = {"members": picks, "cma": searches, "evals": [0] * len(picks),
+                        "best": [(self.pop[k].bits.copy(), self.pop[k].f.copy())
+                                 for k in picks]}
+
+    def _structure_key(self, m: _Member) -> str:
+        if self.structure is None:
+            return ""
+        return hashlib.sha1(self.matrix(m).tobytes()).hexdigest()
+
+    def _new_cma(self, q, seed):
+        from descent_fmus.synthesis.methods.policy_search import CMA
+        p = self.params
+        step = (p.hi - p.lo) / float(1 << p.bits_per)
+        grid = lambda x: p.decode(p.encode(x))  # noqa: E731  (what the Gray code can hold)
+        return CMA(q, self.cfg.refine_sigma, seed, popsize=self.cfg.refine_popsize or None,
+                   bounds=(p.lo, p.hi - step), x_map=grid)
+
+    def _refine_members(self) -> list:
+        r = self._refine
+        out = []
+        for k, c, n in zip(r["members"], r["cma"], r["evals"]):
+            if n >= self.cfg.refine_evals:
+                continue
+            var = list(self.pop[k].variations)
+            out += [_Member(list(var), self.params.encode(x)) for x in c.ask()]
+        return out
+
+    def _better(self, f, g) -> bool:
+        """Is objective row f better than g for the target (feasible first, then objective)?"""
+        t = self.target
+        fs, gs = t.feasible(f)[0], t.feasible(g)[0]
+        if fs != gs:
+            return bool(fs)
+        if fs:
+            return f[t.objective] < g[t.objective]
+        return t.scalar(f)[0] < t.scalar(g)[0]
+
+    def _tell_refine(self, members, F) -> None:
+        r = self._refine
+        i = 0
+        for j, (c, n) in enumerate(zip(r["cma"], r["evals"])):
+            if n >= self.cfg.refine_evals:
+                continue
+            m = c.popsize
+            rows = F[i:i + m]
+            c.tell(self.target.scalar(rows))
+            for mem in members[i:i + m]:
+                if self._better(mem.f, r["best"][j][1]):
+                    r["best"][j] = (mem.bits.copy(), mem.f.copy())
+            r["evals"][j] += m
+            i += m
+        if all(n >= self.cfg.refine_evals for n in r["evals"]):
+            self._finish_refine()
+
+    def _finish_refine(self) -> None:
+        """The refined parameters replace those of the members they started from."""
+        r = self._refine
+        for k, (bits, f), c in zip(r["members"], r["best"], r["cma"]):
+            if self._better(f, self.pop[k].f):
+                self.pop[k] = _Member(list(self.pop[k].variations), bits.copy(), f.copy())
+                if k == 0:
+                    self.q0 = self.params.decode(bits)
+            self._cma_pool[self._structure_key(self.pop[k])] = (c, _bits_text(self.pop[k].bits))
+        while len(self._cma_pool) > self.cfg.refine_laws * 4:     # oldest first
+            del self._cma_pool[next(iter(self._cma_pool))]
+        self.lh = dominance_counts(self.F)
+        self._refine = None
+
+    def _refine_state(self):
+        pool = [{"key": k, "cma": c.state(), "b": b} for k, (c, b) in self._cma_pool.items()]
+        r = self._refine
+        if r is None:
+            return {"pool": pool}
+        return {"pool": pool, "members": r["members"], "evals": r["evals"],
+                "cma": [c.state() for c in r["cma"]],
+                "best": [{"b": _bits_text(b), "f": f.tolist()} for b, f in r["best"]]}
+
+    def _load_refine_state(self, st) -> None:
+        st = st or {}
+        self._cma_pool = {a["key"]: (self._new_cma(self.q0, 1).load_state(a["cma"]), a["b"])
+                          for a in st.get("pool", [])}
+        if "members" not in st:
+            self._refine = None
+            return
+        self._refine = {"members": list(st["members"]), "evals": list(st["evals"]),
+                        "cma": [self._new_cma(self.q0, 1).load_state(t) for t in st["cma"]],
+                        "best": [(_bits_array(b["b"]), np.array(b["f"], float))
+                                 for b in st["best"]]}
+
     # -- checkpoint -----------------------------------------------------------------------
     def state(self) -> dict:
         """JSON-serialisable state (restores to the same future as an uninterrupted run)."""
@@ -442,6 +597,7 @@ class VariationalGA:
             "archive": [{"psi": None if psi is None else psi.tolist(),
                          "b": "".join(map(str, bits.tolist())), "f": f.tolist(),
                          "v": [list(x) for x in v]} for psi, bits, f, v in self.archive],
+            "refine_due": self._refine_due, "refine": self._refine_state(),
         }
 
     def load_state(self, st: dict) -> "VariationalGA":
@@ -462,4 +618,6 @@ class VariationalGA:
                         for a in st["archive"]]
         self.lh = dominance_counts(self.F)
         self._pending = None
+        self._refine_due = st.get("refine_due", False)
+        self._load_refine_state(st.get("refine"))
         return self

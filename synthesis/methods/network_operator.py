@@ -319,6 +319,13 @@ class NetworkOperator:
                                list(self.input_offset))
 
     # -- readable form --------------------------------------------------------------------
+    def readable(self, digits: int = 6):
+        """The law made readable by SymPy -- constants folded, simplified, common
+        sub-expressions named (:class:`synthesis.methods.law_formula.Readable`: ``text``,
+        ``latex``, ``exact``).  Computed once per law content (cached)."""
+        from descent_fmus.synthesis.methods.law_formula import readable_cached
+        return readable_cached(self, digits)
+
     def formula(self, digits: int = 6) -> str:
         """A readable expression of the (first) output, e.g. ``(q1*y1)+(q2*y2)``."""
         L, ns = self.size, self.nx + len(self.q)

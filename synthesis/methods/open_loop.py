@@ -7,7 +7,9 @@ maximum of the samples ``g_i(u)`` of a flight under equality constraints ``e(u) 
     minimise s  over (u, s)   subject to  g_i(u) <= s,  e(u) = 0,  lo <= u_k <= hi.
 
 The flight is a black box ``fly(u) -> (g, e)`` with ``g`` of a fixed length (pad with a value
-below the peak); gradients are forward differences of flights unless ``fly_jac`` gives them.
+below the peak); gradients are forward differences of flights unless the flight gives them
+(``with_jacobian``: ``fly(u) -> (g, e, dg/du, de/du)``).  With ``eq_tol > 0`` the equality
+becomes ``|e| <= eq_tol`` (two inequalities).
 No feedback law can beat the best program on the nominal flight, which makes this the bound a
 synthesis compares with.
 """
@@ -23,7 +25,8 @@ __all__ = ["minimax_program"]
 
 def minimax_program(fly, n: int, bounds: tuple, u0=None, eq_scale: float = 1.0,
                     maxiter: int = 200, tol: float = 1e-9, fd_step: float = 1e-6,
-                    progress=None) -> tuple[np.ndarray, dict]:
+                    progress=None, eq_tol: float = 0.0,
+                    with_jacobian: bool = False) -> tuple[np.ndarray, dict]:
     """Minimise ``max_i g_i(u)`` subject to ``e(u) = 0`` over ``n`` bounded values.
 
     Parameters
@@ -41,6 +44,10 @@ def minimax_program(fly, n: int, bounds: tuple, u0=None, eq_scale: float = 1.0,
     maxiter, tol : SLSQP limits.
     fd_step : float
         Forward-difference step of the gradients (taken backwards at the upper bound).
+    eq_tol : float
+        Allowed ``|e|`` (in the units of ``e``, before ``eq_scale``); 0 = equality.
+    with_jacobian : bool
+        ``fly`` also returns the Jacobians ``(g, e, dg/du, de/du)``: no finite differences.
     progress : callable, optional
         ``progress(iteration, peak, |e|)`` after every SLSQP iteration.
 
@@ -55,7 +62,7 @@ def minimax_program(fly, n: int, bounds: tuple, u0=None, eq_scale: float = 1.0,
     cache = {}
 
     def run(u):
-        g, e = fly(u)
+        g, e = fly(u)[:2]
         return np.asarray(g, float), np.atleast_1d(np.asarray(e, float)) * eq_scale
 
     def eval_with_jac(z):
@@ -63,6 +70,12 @@ def minimax_program(fly, n: int, bounds: tuple, u0=None, eq_scale: float = 1.0,
         if key in cache:
             return cache[key]
         u = z[:-1]
+        if with_jacobian:
+            g0, e0, jg, je = fly(u)
+            cache.clear()
+            cache[key] = (np.asarray(g0, float), np.atleast_1d(np.asarray(e0, float)) * eq_scale,
+                          np.asarray(jg, float), np.atleast_2d(np.asarray(je, float)) * eq_scale)
+            return cache[key]
         g0, e0 = run(u)
         jg = np.zeros((len(g0), n))
         je = np.zeros((len(e0), n))
@@ -81,10 +94,20 @@ def minimax_program(fly, n: int, bounds: tuple, u0=None, eq_scale: float = 1.0,
         {"type": "ineq", "fun": lambda z: z[-1] - eval_with_jac(z)[0],
          "jac": lambda z: np.hstack([-eval_with_jac(z)[2], np.ones((len(eval_with_jac(z)[0]),
                                                                     1))])},
-        {"type": "eq", "fun": lambda z: eval_with_jac(z)[1],
-         "jac": lambda z: np.hstack([eval_with_jac(z)[3],
-                                     np.zeros((len(eval_with_jac(z)[1]), 1))])},
     ]
+    if eq_tol > 0:
+        t = eq_tol * eq_scale
+        cons += [
+            {"type": "ineq", "fun": lambda z: t - eval_with_jac(z)[1],
+             "jac": lambda z: np.hstack([-eval_with_jac(z)[3],
+                                         np.zeros((len(eval_with_jac(z)[1]), 1))])},
+            {"type": "ineq", "fun": lambda z: t + eval_with_jac(z)[1],
+             "jac": lambda z: np.hstack([eval_with_jac(z)[3],
+                                         np.zeros((len(eval_with_jac(z)[1]), 1))])}]
+    else:
+        cons.append({"type": "eq", "fun": lambda z: eval_with_jac(z)[1],
+                     "jac": lambda z: np.hstack([eval_with_jac(z)[3],
+                                                 np.zeros((len(eval_with_jac(z)[1]), 1))])})
     u_start = np.zeros(n) if u0 is None else np.asarray(u0, float)
     u_start = np.clip(u_start, lo, hi)
     z0 = np.append(u_start, run(u_start)[0].max())

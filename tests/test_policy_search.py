@@ -1,0 +1,111 @@
+"""Fixed-structure policy search (CMA-ES over q) and the baseline law structures.
+
+Oracles: the closed forms of a polynomial and of a one-hidden-layer tanh network (evaluated here
+with numpy), a quadratic bowl whose minimum is known, and an uninterrupted run (for the
+checkpoint).
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.policy_search import (CMA, PolicySearch, Target, monomials,
+                                                          polynomial_law, tanh_network_law)
+
+TEMPLATE = NetworkOperator.linear([[1.0, 1.0]], bounds=[(-0.2, 0.2)], input_names=["a", "b"],
+                                  input_scale=[10.0, 2.0])
+
+
+def test_monomials_of_a_cubic_in_two_inputs():
+    # C(2 + 3, 3) - 1 = 9 monomials of degree 1..3
+    assert monomials(2, 3) == [(1, 0), (0, 1), (2, 0), (1, 1), (0, 2), (3, 0), (2, 1), (1, 2),
+                               (0, 3)]
+    assert len(monomials(4, 2)) == 14
+
+
+def test_polynomial_law_is_the_polynomial():
+    c = np.linspace(-0.3, 0.4, 10)
+    law = polynomial_law(TEMPLATE, 3, c, size=32)
+    for x in [(0.05, -0.3), (-0.01, 0.2), (0.0, 0.0)]:
+        a, b = 10 * x[0], 2 * x[1]          # the template's input scaling
+        ref = c[0] + sum(ci * a ** i * b ** j for ci, (i, j) in zip(c[1:], monomials(2, 3)))
+        assert law.raw(x)[0] == pytest.approx(ref, rel=1e-14, abs=1e-15)
+        assert law(x)[0] == min(max(ref, -0.2), 0.2)
+    assert law.size == 32 and len(law.q) == 10
+    law.start_values()                        # fits the generic controller FMU
+
+
+def test_tanh_network_law_is_the_network():
+    law = tanh_network_law(TEMPLATE, hidden=3, seed=4)
+    q = np.array(law.q)
+    W, v, c = q[:9].reshape(3, 3), q[9:12], q[12]
+    for x in [(0.05, -0.3), (-0.02, 0.4)]:
+        s = np.array([10 * x[0], 2 * x[1], 1.0])
+        ref = c + float(v @ np.tanh(W @ s / 2))
+        assert law.raw(x)[0] == pytest.approx(ref, rel=1e-13)
+    law.start_values()
+    with pytest.raises(ValueError, match="13 parameters"):
+        tanh_network_law(TEMPLATE, 3, weights=[0.0] * 12)
+
+
+def test_target_scalar_and_feasibility():
+    t = Target(0, 1, 1000.0, weight=10.0)
+    F = np.array([[8.3, 900.0], [8.2, 1100.0], [8.4, 10.0]])
+    assert t.feasible(F).tolist() == [True, False, True]
+    assert t.scalar(F) == pytest.approx([8.3, 8.2 + 10 * 0.1, 8.4])
+    assert t.best(F) == 0
+    assert t.best(F[1:2]) is None
+
+
+def _bowl(laws):
+    # objective 1: distance of q from (0.3, -0.2, 0.1); objective 2: |q1| as a "miss"
+    q = np.array([law.q for law in laws])
+    return np.c_[((q - [0.3, -0.2, 0.1]) ** 2).sum(axis=1), np.abs(q[:, 0]) * 1000]
+
+
+def _search(seed):
+    law = NetworkOperator.linear([[1.0, 1.0]], bias=[0.5], bounds=[(-1, 1)])
+    return PolicySearch(law, Target(0, 1, 250.0), seed=seed, sigma=0.3)
+
+
+def test_policy_search_finds_the_constrained_minimum():
+    # min |q - (0.3, -0.2, 0.1)|^2 subject to 1000 |q1| < 250: the minimum lies on the
+    # constraint, q = (0.25, -0.2, 0.1), objective 0.05^2 = 0.0025 (closed form)
+    s = _search(3).run(_bowl, 600)
+    assert s.best_f[1] < 250.0
+    assert s.best_f[0] == pytest.approx(0.0025, abs=2e-5)
+    assert s.best_law.q == pytest.approx([0.25, -0.2, 0.1], abs=2e-3)
+
+
+def test_policy_search_is_seeded_and_resumes_from_its_state():
+    a = _search(5).run(_bowl, 300)
+    b = _search(5).run(_bowl, 300)
+    assert a.best_law.q == b.best_law.q
+    c = _search(5).run(_bowl, 120)
+    state = json.loads(json.dumps(c.state()))
+    d = _search(99).load_state(state).run(_bowl, 300 - c.evaluations)
+    assert d.evaluations == a.evaluations
+    assert d.best_law.q == a.best_law.q and np.array_equal(d.best_f, a.best_f)
+    assert _search(6).run(_bowl, 300).best_law.q != a.best_law.q
+
+
+def test_cma_restarts_with_a_larger_population():
+    # IPOP: once the step size has collapsed the search restarts with twice the population
+    law = NetworkOperator.linear([[1.0]], bounds=[(-1, 1)])
+    s = PolicySearch(law, Target(0), seed=1, sigma=0.3, restart_sigma=1e-2)
+    p0 = s.popsize
+    s.run(lambda laws: np.array([[(lw.q[0] - 0.1) ** 2 + (lw.q[1] + 0.3) ** 2] for lw in laws]),
+          400)
+    assert s.restarts >= 1 and s.popsize == p0 * 2 ** s.restarts
+
+
+def test_cma_candidates_are_mapped_and_bounded():
+    c = CMA([0.5, -0.5], 0.5, seed=2, bounds=(-1.0, 1.0), x_map=lambda x: np.round(x, 2))
+    xs = c.ask()
+    assert all(np.all(np.abs(x) <= 1.0) and np.array_equal(x, np.round(x, 2)) for x in xs)
+    with pytest.raises(ValueError, match="finite values"):
+        c.tell([math.nan] * len(xs))

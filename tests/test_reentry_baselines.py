@@ -1,0 +1,77 @@
+"""S1 fixed-structure CMA-ES baselines (``synthesize reentry --method cma-*``) through the FMUs.
+
+Oracles: the paper's basic law flown directly (its J1 = 8.820 true peak, 5068 m miss), fmpy's
+own ``simulate_fmu`` of the exported closed-loop FMU, and an uninterrupted run (resume).
+"""
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+from fmpy import simulate_fmu
+
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.synthesize import methods, run_synthesis
+from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
+
+REENTRY = get_problem("reentry")
+TINY = dict(population=8, generations=0, crossovers=2, lchr=2, epoch=2)
+
+
+def test_baselines_are_laws_of_the_generic_controller(fmu_dir):
+    assert methods(REENTRY) == ["network-operator", "cma-basic", "cma-polynomial", "cma-tanh"]
+    structures = REENTRY.baselines()
+    with load_loop(fmu_dir) as loop:
+        flights = {n: fly(law, loop=loop).objectives for n, law in structures.items()}
+        paper = fly(NetworkOperator.basic_law(), loop=loop).objectives
+    # the basic-law and polynomial baselines start at the paper's basic law (the polynomial's
+    # linear coefficients are q1/10, q2/2 on the inputs 10 y1, 2 y2): the same flight
+    for name in ("basic", "polynomial"):
+        assert flights[name]["J1"] == pytest.approx(paper["J1"], rel=1e-9)
+        assert flights[name]["J2"] == pytest.approx(paper["J2"], rel=1e-6)
+    assert paper["J1"] == pytest.approx(8.820, abs=1e-3)
+    # the GA's basic solution is the polynomial structure on 32 nodes (spare nodes)
+    assert REENTRY.basic_law.size == 32
+    assert REENTRY.basic_law.formula() == structures["polynomial"].formula()
+
+
+def test_baseline_run_exports_laws_that_replay_under_fmpy(fmu_dir, tmp_path):
+    s = run_synthesis(REENTRY, tmp_path / "poly", fmu_dir, Budget(**TINY, seed=1, flights=20),
+                      progress=False, reference=False, method="cma-polynomial")
+    assert s["method"] == "cma-polynomial" and s["evaluations"] >= 20 and s["failures"] == 0
+    rows = json.loads((tmp_path / "poly" / "pareto.json").read_text())
+    assert rows and all(r["law"]["formula"] == NetworkOperator.from_dict(r["law"]).formula()
+                        for r in rows)
+    r = rows[0]
+    res = simulate_fmu(r["closed_loop_fmu"], output=["L", "load_max", "status"])
+    assert res[-1]["status"] == 1
+    assert res[-1]["load_max"] == pytest.approx(r["J1"], rel=1e-12)
+    assert abs(res[-1]["L"] - REENTRY.initial_states[0]["Lf"]) == pytest.approx(r["J2"],
+                                                                                   abs=1e-6)
+
+
+def test_baseline_run_resumes_to_the_uninterrupted_result(fmu_dir, tmp_path):
+    budget = Budget(**TINY, seed=4, flights=40)
+    a = run_synthesis(REENTRY, tmp_path / "a", fmu_dir, budget, progress=False, export=False,
+                      reference=False, method="cma-tanh")
+    cut = run_synthesis(REENTRY, tmp_path / "b", fmu_dir, budget, progress=False, export=False,
+                        reference=False, method="cma-tanh", stop_after=2)
+    assert cut["interrupted"]
+    b = run_synthesis(REENTRY, tmp_path / "b", fmu_dir, budget, progress=False, export=False,
+                      reference=False, method="cma-tanh", resume=True)
+    key = lambda r: (r["J1"], r["J2"], r["formula"])  # noqa: E731
+    assert [key(r) for r in a["pareto"]] == [key(r) for r in b["pareto"]]
+    assert [list(c) for c in a["curve"]] == [list(c) for c in b["curve"]]
+
+
+def test_unknown_method_is_a_one_line_error(fmu_dir, tmp_path):
+    r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize",
+                        "reentry", "--method", "cma-nope", "--out", str(tmp_path / "x"),
+                        "--fmus", str(fmu_dir)], capture_output=True, text=True)
+    assert r.returncode == 2
+    assert r.stderr.count("\n") == 1 and "unknown method 'cma-nope'" in r.stderr
+    assert "cma-polynomial" in r.stderr and not (tmp_path / "x").exists()
