@@ -12,11 +12,17 @@ registration in one place so that the FMU classes read like a table of their int
   ``discrete`` as FMI 2.0 requires);
 * the plant status convention: every plant publishes the Integer ``status``
   (:data:`models.integrators.STATUS_DESCRIPTION`) and the Real ``t_end``
-  (:meth:`SlaveBase.status_outputs`).
+  (:meth:`SlaveBase.status_outputs`);
+* sampled controllers: every controller (``models/controllers/``) has the parameter
+  ``sample_period``; with a value > 0 it acts once per period and holds its outputs in between,
+  so that a master may step finer than the controller samples (``_sampling_step``).
 
 Parameter checks run in ``exit_initialization_mode``; a failed check raises
-:class:`ParameterError`, which pythonfmu reports through the FMU logger and turns into
-``fmi2Error`` -- the host sees a message naming the parameter, never a NaN trajectory.
+:class:`ParameterError` with a message naming the parameter (never a NaN trajectory).  pythonfmu
+0.7 logs it with status fmi2Error and returns fmi2Fatal (its C++ layer turns every Python
+exception into fmi2Fatal and forwards log messages only when the host instantiated the FMU with
+``loggingOn``: ``fmpy simulate --debug-logging`` shows the message).  A container FMU reports a
+failing component as fmi2Error.
 """
 from __future__ import annotations
 
@@ -33,7 +39,48 @@ from descent_fmus.models.params import (ParameterError, description_of, require_
                                         require_positive)
 from descent_fmus.models.pythonfmu_compat import GUARDED_METHODS, keep_refs_on_error
 
-__all__ = ["ParameterError", "SlaveBase", "require_finite", "require_positive"]
+__all__ = ["ParameterError", "SlaveBase", "require_finite", "require_positive",
+           "SAMPLE_PERIOD_DESCRIPTION"]
+
+_CONTROLLERS = "descent_fmus.models.controllers."
+SAMPLE_PERIOD_DESCRIPTION = ("sample period of the controller: it reads its inputs and updates "
+                             "its outputs once per period and holds them in between; 0 = at "
+                             "every communication point [s]")
+
+
+def _sampling_step(do_step):
+    """``do_step`` of a sampled controller (:attr:`SlaveBase.sampled`).
+
+    With ``sample_period = Ts > 0`` the controller acts at most once per ``Ts``: a communication
+    step that ends less than ``Ts`` after the last sample holds the outputs and ignores the
+    inputs; the first one that ends ``Ts`` or more after it runs the controller's own step over
+    the whole interval since the last sample, and the controller is live again (it reads its
+    inputs and computes its outputs).  A master stepping at ``Ts`` sees exactly the unsampled
+    controller; one stepping at ``Ts / n`` sees the same controller sampled every ``n`` steps.
+    """
+    import functools
+
+    @functools.wraps(do_step)
+    def step(self, current_time: float, step_size: float) -> bool:
+        if self._held is None:                 # sample_period = 0: every communication point
+            return do_step(self, current_time, step_size)
+        if self._sample_t is None:
+            self._sample_t = current_time
+        if not self._holding:                  # leaving a sample: hold the outputs
+            self._hold()
+        t1 = current_time + step_size
+        elapsed = t1 - self._sample_t
+        if elapsed < self.sample_period * (1.0 - 1e-9):
+            return True
+        if self._sample_t == current_time:     # one communication step: exactly as given
+            ok = do_step(self, current_time, step_size)
+        else:
+            ok = do_step(self, self._sample_t, elapsed)
+        self._sample_t = t1
+        self._holding = False
+        return ok
+
+    return step
 
 
 def _template(var) -> dict:
@@ -101,11 +148,23 @@ class SlaveBase(Fmi2Slave):
     # and large blocks (var_block) are materialised only when a value reference is touched.
     _prototypes: dict = {}
 
+    #: A sampled controller gets the parameter ``sample_period`` (see :meth:`_sampling_step`).
+    #: None = decided by the module: every FMU class under ``models/controllers/`` is sampled.
+    sampled: bool | None = None
+
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
         self.vars = _LazyVars()
+        self._io = []               # (variable, causality, getter, setter) of inputs and outputs
+        self._held = None           # output values held between samples (None: unsampled)
+        self._holding = False       # between two samples
+        self._sample_t = None       # time of the last sample [s]
+        if self.sampled:
+            self.parameter("sample_period", 0.0, SAMPLE_PERIOD_DESCRIPTION)
 
     def _var(self, cls, name, getter, setter=None, **kw) -> None:
+        if self.sampled and kw.get("causality") in (Fmi2Causality.input, Fmi2Causality.output):
+            self._io.append((name, kw["causality"], getter, setter))
         proto = SlaveBase._prototypes.get((type(self), name))
         vr = self.vars.size
         if proto is not None and proto[1] == vr:
@@ -240,6 +299,10 @@ class SlaveBase(Fmi2Slave):
         # pythonfmu 0.7 crashes the host after a callback raised unless the references are
         # balanced (models/pythonfmu_compat.py): guard every callback of every FMU class.
         super().__init_subclass__(**kwargs)
+        if "sampled" not in cls.__dict__ and cls.sampled is None:
+            cls.sampled = cls.__module__.startswith(_CONTROLLERS)
+        if cls.sampled and "do_step" in cls.__dict__:
+            cls.do_step = _sampling_step(cls.__dict__["do_step"])
         for name in GUARDED_METHODS:
             if name in cls.__dict__:
                 setattr(cls, name, keep_refs_on_error(cls.__dict__[name]))
@@ -282,7 +345,33 @@ class SlaveBase(Fmi2Slave):
     def exit_initialization_mode(self) -> None:
         try:
             self.check_parameters()
+            if self.sampled:
+                self._start_sampling()
         except ParameterError as exc:
             self.log(f"{type(self).__name__}: {exc}", status=3, category="logStatusError")
             raise
         self.prepare()
+
+    # -- sampled controllers ----------------------------------------------------------------
+    def _start_sampling(self) -> None:
+        """With ``sample_period > 0``: hold outputs and ignore inputs between samples."""
+        period = require_finite("sample_period", self.sample_period)
+        if period < 0.0:
+            raise ParameterError(f"parameter sample_period must be >= 0, got {period!r}")
+        if period == 0.0 or self._held is not None:
+            return
+        self._held = held = {}
+        by_name = {v.name: v for v in self.vars.values()}
+        for name, causality, getter, setter in self._io:
+            var = by_name[name]
+            if causality == Fmi2Causality.output:
+                var.getter = lambda n=name, g=getter: held[n] if self._holding else g()
+            elif setter is not None:
+                var.setter = lambda v, s=setter: None if self._holding else s(v)
+
+    def _hold(self) -> None:
+        """Freeze the outputs at their values now (the last sample) until the next sample."""
+        for name, causality, getter, _ in self._io:
+            if causality == Fmi2Causality.output:
+                self._held[name] = getter()
+        self._holding = True

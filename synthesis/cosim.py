@@ -146,10 +146,16 @@ class ClosedLoopResult:
         return self.outputs[name]
 
 
-def load_slave(path, instance_name: str, log: list | None = None) -> FMU2Slave:
-    """Extract and instantiate an FMI 2.0 co-simulation FMU once (fmpy ``FMU2Slave``)."""
+def load_slave(path, instance_name: str, log: list | None = None,
+               validate: bool = True, logging_on: bool = True) -> FMU2Slave:
+    """Extract and instantiate an FMI 2.0 co-simulation FMU once (fmpy ``FMU2Slave``).
+
+    ``validate=False`` skips fmpy's checks of the model description and ``logging_on=False``
+    asks the FMU to log errors only (for the evaluation-only containers of
+    ``synthesis.runners``: their parameters carry no start value, and a container logging on
+    reports every call of its components)."""
     path = require_fmu(path)
-    md = read_model_description(str(path))
+    md = read_model_description(str(path), validate=validate)
     if md.fmiVersion != "2.0" or md.coSimulation is None:
         raise FMUError(f"{path}: need an FMI 2.0 co-simulation FMU, got FMI {md.fmiVersion} "
                        f"{'co-simulation' if md.coSimulation else 'model exchange only'}")
@@ -168,7 +174,7 @@ def load_slave(path, instance_name: str, log: list | None = None) -> FMU2Slave:
     callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
     fmu._descent_callbacks = callbacks  # keep a reference: ctypes callbacks must outlive the FMU
-    fmu.instantiate(callbacks=callbacks, loggingOn=True)
+    fmu.instantiate(callbacks=callbacks, loggingOn=logging_on)
     return fmu
 
 

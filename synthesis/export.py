@@ -26,7 +26,8 @@ from fmpy import read_model_description
 from descent_fmus.synthesis.cosim import Wiring
 from descent_fmus.synthesis.paths import require_fmu
 
-__all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp"]
+__all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp",
+           "add_units", "units_into_model_description", "refine_container"]
 
 #: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -103,7 +104,72 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
         script = tmp / "entry" / f"{cls}.py"
         script.parent.mkdir()
         script.write_text(entry_script(module, cls))
-        return Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
+        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
+    return add_units(fmu)
+
+
+def _rewrite_model_description(fmu: Path, edit) -> Path:
+    """Apply ``edit(root)`` to the modelDescription.xml of ``fmu`` (in place, atomically)."""
+    tmp = fmu.with_suffix(".fmu.tmp")
+    with zipfile.ZipFile(fmu) as zin:
+        root = ET.fromstring(zin.read("modelDescription.xml"))
+        edit(root)
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = (ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+                        if item.filename == "modelDescription.xml" else zin.read(item.filename))
+                zout.writestr(item, data)
+    tmp.replace(fmu)
+    return fmu
+
+
+def _unit_definitions(units) -> ET.Element:
+    """``<UnitDefinitions>`` of the unit names ``units`` (SI exponents from synthesis.units)."""
+    from descent_fmus.synthesis.units import base_unit
+    defs = ET.Element("UnitDefinitions")
+    for name in sorted(units):
+        unit = ET.SubElement(defs, "Unit", {"name": name})
+        base = base_unit(name)
+        if base is not None:
+            exps, factor = base
+            attrs_ = {b: str(e) for b, e in exps.items()}
+            if factor != 1.0:
+                attrs_["factor"] = repr(factor)
+            ET.SubElement(unit, "BaseUnit", attrs_)
+    return defs
+
+
+def units_into_model_description(root: ET.Element) -> set:
+    """Give every Real variable the unit its description ends with (``"... [m/s]"``) and
+    declare the units in ``<UnitDefinitions>``; return the unit names.
+
+    The bracket is where the one definition of a unit (``models.params.param`` for parameters,
+    the FMU class for inputs and outputs) reaches the model description; pythonfmu has no unit
+    attribute.  FMI 2.0 gives only Real variables a ``unit``.
+    """
+    from descent_fmus.synthesis.units import unit_of_description
+    units = set()
+    for sv in root.iter("ScalarVariable"):
+        unit = unit_of_description(sv.get("description"))
+        kind = sv[0]
+        if unit is not None and kind.tag == "Real":
+            kind.set("unit", unit)
+            units.add(unit)
+    old = root.find("UnitDefinitions")
+    if old is not None:
+        root.remove(old)
+    if units:
+        children = list(root)
+        at = max((k + 1 for k, c in enumerate(children)
+                  if c.tag in ("ModelExchange", "CoSimulation")), default=0)
+        root.insert(at, _unit_definitions(units))
+    return units
+
+
+def add_units(fmu: Path) -> Path:
+    """Write the units of an FMU's variables into its model description (see
+    :func:`units_into_model_description`)."""
+    return _rewrite_model_description(Path(fmu), units_into_model_description)
 
 
 def _start_literal(value) -> str:
@@ -156,7 +222,7 @@ def with_defaults(src_fmu: Path, dst_fmu: Path, values: dict, description: str |
 
 
 def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path,
-                    parameters: tuple = ()) -> Path:
+                    parameters: tuple = (), starts: bool = True) -> Path:
     """Compose plant and controller into one container FMU with fmpy (``fmpy.container_fmu``).
 
     Parameters
@@ -169,6 +235,10 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
         Output ``.fmu`` file.
     parameters : tuple of (str, str, str)
         (container name, "plant" | "controller", component variable) parameters to expose.
+    starts : bool
+        False: the exposed parameters carry no start value -- a container for evaluation only
+        (``synthesis.runners``), whose reset then leaves them at the components' own defaults
+        instead of setting each one again (fmpy's container sets every start value on reset).
     """
     from fmpy.container_fmu.cli import create_container_fmu
     from fmpy.container_fmu.config import Component, Configuration, Connection
@@ -191,10 +261,18 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
     variables = [ModelVariable(type="Real", variability="continuous", causality="independent",
                                name="time", description="time [s]")]
     mappings, outputs = {}, []
+    parameters = tuple(parameters)
+    if (wiring.to_controller and "sample_period" in cvars["controller"]
+            and "sample_period" not in {c for c, _, _ in parameters}):
+        # a feedback controller samples at the wiring's step whatever the container's step
+        # (refine_container: finer output with the controller at its own period)
+        parameters += (("sample_period", "controller", "sample_period"),)
     for cname, role, vname in parameters:
         src = cvar(role, vname)
+        start = (repr(float(wiring.step)) if (role, vname) == ("controller", "sample_period")
+                 else src.start if starts else None)
         v = ModelVariable(type=src.type, variability="fixed", causality="parameter",
-                          initial="exact", name=cname, start=src.start,
+                          initial="exact", name=cname, start=start,
                           description=src.description)
         variables.append(v)
         mappings[v] = [(comps[role], src)]
@@ -248,8 +326,47 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
         work.mkdir()
         out = Path(tmp) / f"{wiring.name}.fmu"
         create_container_fmu(config, work, out)
+        add_units(out)      # the variables' descriptions carry the components' units
         shutil.move(str(out), dest)
     return dest
+
+
+def refine_container(src_fmu: Path, dst_fmu: Path, step: float) -> Path:
+    """Copy a closed-loop container FMU with a finer internal step ``step`` [s].
+
+    fmpy's container steps every component with one fixed step and accepts communication steps
+    (``fmpy simulate --output-interval``) that are multiples of it.  The copy runs the plant on
+    ``step``; the controller keeps sampling at its own period (the container's parameter
+    ``sample_period``, by default the closed loop's step), so the output is finer and the
+    control the same.  The plant's integration sub-steps become at most ``step``: results at
+    the sample instants move by the plant's integration error only.
+    """
+    src_fmu, dst_fmu = require_fmu(src_fmu), Path(dst_fmu)
+    step = float(step)
+    if not (step > 0.0 and step < float("inf")):
+        raise ValueError(f"the internal step must be finite and > 0, got {step!r}")
+    md = read_model_description(str(src_fmu))
+    if md.coSimulation is None or md.coSimulation.modelIdentifier != "container_fmu":
+        raise ValueError(f"{src_fmu} is not a closed-loop container FMU (fmpy container)")
+    names = {v.name for v in md.modelVariables}
+    with zipfile.ZipFile(src_fmu) as zin:
+        config = json.loads(zin.read("resources/container.json"))
+        feedback = len({c["srcComponent"] for c in config["connections"]}) > 1
+        if feedback and "sample_period" not in names:
+            raise ValueError(f"{src_fmu.name} has no parameter sample_period: its controller "
+                             f"would act at every internal step; rebuild it (python "
+                             f"build_fmus.py) and refine the new one")
+        config["fixedStepSize"] = step
+        dst_fmu.parent.mkdir(parents=True, exist_ok=True)
+        tmp = dst_fmu.with_suffix(".fmu.tmp")
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = (json.dumps(config, indent=4).encode()
+                        if item.filename == "resources/container.json"
+                        else zin.read(item.filename))
+                zout.writestr(item, data)
+    tmp.replace(dst_fmu)
+    return dst_fmu
 
 
 _SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -274,6 +391,8 @@ def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path)
             "controller": set(b for _, b in wiring.to_controller) |
                           set(a for a, _ in wiring.to_plant)}
     used["plant"] |= {v for _, r, v in wiring.exposed if r == "plant"}
+    from descent_fmus.synthesis.units import base_unit
+    units = set()
     for role, path in (("plant", plant_fmu), ("controller", controller_fmu)):
         md = read_model_description(str(path))
         comp = ET.SubElement(elements, q(_SSD_NS, "Component"),
@@ -284,16 +403,28 @@ def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path)
             if v.name in used[role]:
                 kind = {"input": "input", "output": "output"}.get(v.causality, "parameter")
                 c = ET.SubElement(cons, q(_SSD_NS, "Connector"), {"name": v.name, "kind": kind})
-                ET.SubElement(c, q(_SSC_NS, v.type))
+                t = ET.SubElement(c, q(_SSC_NS, v.type))
+                # SSP units need SI exponents: a unit FMI 2.0 cannot state stays off
+                if v.type == "Real" and v.unit and base_unit(v.unit) is not None:
+                    t.set("unit", v.unit)
+                    units.add(v.unit)
     for a, b in wiring.to_controller:
         ET.SubElement(conns, q(_SSD_NS, "Connection"), {"startElement": "plant",
                       "startConnector": a, "endElement": "controller", "endConnector": b})
     for a, b in wiring.to_plant:
         ET.SubElement(conns, q(_SSD_NS, "Connection"), {"startElement": "controller",
                       "startConnector": a, "endElement": "plant", "endConnector": b})
-    defex = ET.SubElement(root, q(_SSD_NS, "DefaultExperiment"),
-                          {"startTime": "0", "stopTime": repr(wiring.stop_time)})
-    del defex
+    if units:                      # ssd:Units comes between ssd:System and DefaultExperiment
+        ud = ET.SubElement(root, q(_SSD_NS, "Units"))
+        for name in sorted(units):
+            exps, factor = base_unit(name)
+            u = ET.SubElement(ud, q(_SSC_NS, "Unit"), {"name": name})
+            bu = {b: str(e) for b, e in exps.items()}
+            if factor != 1.0:
+                bu["factor"] = repr(factor)
+            ET.SubElement(u, q(_SSC_NS, "BaseUnit"), bu)
+    ET.SubElement(root, q(_SSD_NS, "DefaultExperiment"),
+                  {"startTime": "0", "stopTime": repr(wiring.stop_time)})
     dest.parent.mkdir(parents=True, exist_ok=True)
     tmp = dest.with_suffix(".ssp.tmp")
     with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:

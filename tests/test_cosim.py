@@ -98,3 +98,81 @@ def test_ssp_is_valid_and_describes_the_loop(fmu_dir):
 def test_missing_fmu_is_a_clear_error(tmp_path):
     with pytest.raises(FMUNotFoundError, match="build_fmus.py"):
         ClosedLoop(spec.WIRING, tmp_path / "Reentry.fmu", tmp_path / "NoSuch.fmu")
+
+
+# -- errors: the FMU's message and the FMI status of an invalid parameter -----------------------
+PLANTS = ("Reentry", "MarsCapsule", "MarsCapsule6DOF", "LunarLander", "Telescope",
+          "FlexibleTelescope", "LunarDescent")
+
+
+@pytest.mark.parametrize("plant", PLANTS)
+def test_invalid_parameter_is_reported_with_its_name(fmu_dir, plant):
+    # every plant checks its RK4 sub-step dt > 0 at exitInitializationMode; the message naming
+    # the parameter reaches a host that instantiates with loggingOn (fmpy simulate
+    # --debug-logging); pythonfmu 0.7 returns fmi2Fatal (4) for the rejected value
+    from fmpy.fmi1 import FMICallException
+
+    from descent_fmus.synthesis.cosim import load_slave
+    log: list = []
+    fmu = load_slave(fmu_dir / f"{plant}.fmu", "plant", log)
+    try:
+        vr = next(v.valueReference for v in fmu._descent_md.modelVariables if v.name == "dt")
+        fmu.setupExperiment(startTime=0.0)
+        fmu.enterInitializationMode()
+        fmu.setReal([vr], [-1.0])
+        with pytest.raises(FMICallException) as err:
+            fmu.exitInitializationMode()
+        assert err.value.status == 4
+        assert any("parameter dt must be > 0, got -1.0" in m for m in log), log
+    finally:
+        fmu.freeInstance()
+
+
+@pytest.mark.parametrize("loop", ["ReentryClosedLoop", "MarsClosedLoop",
+                                  "LunarLanderFeedbackClosedLoop", "LunarDescentClosedLoop"])
+def test_container_reports_an_invalid_parameter_as_fmi2error(fmu_dir, loop):
+    # fmpy's container returns fmi2Error (3) when a component rejects a value (here the
+    # controller's sample period, exposed by every feedback loop)
+    from fmpy.fmi1 import FMICallException
+    with pytest.raises(FMICallException) as err:
+        simulate_fmu(str(fmu_dir / f"{loop}.fmu"), start_values={"sample_period": -1.0},
+                     stop_time=1.0)
+    assert err.value.status == 3
+
+
+# -- fine output: a finer container step, the controller at its own sample period -----------------
+def test_fine_output_keeps_the_controller_period(fmu_dir, loop, tmp_path):
+    from descent_fmus.synthesis.export import refine_container
+    coarse = fmu_dir / "ReentryClosedLoop.fmu"
+    with pytest.raises(Exception, match="fmi2DoStep failed"):   # fmpy's container refuses
+        simulate_fmu(str(coarse), output_interval=0.1, stop_time=2.0)
+    fine = refine_container(coarse, tmp_path / "fine.fmu", 0.1)
+    res = simulate_fmu(str(fine), output_interval=0.1, output=["L", "load_max", "u", "status"])
+    t, u = res["time"], res["u"]
+    assert t[1] - t[0] == pytest.approx(0.1, abs=1e-12)
+    # the law acts once per second (spec.STEP): u changes only at whole seconds
+    changes = t[1:][u[1:] != u[:-1]]
+    assert len(changes) > 50 and all(abs(c - round(c)) < 1e-9 for c in changes)
+    # the same scheme in our master (plant stepped at 0.1 s, controller sample_period 1 s)
+    law = NetworkOperator.basic_law()
+    r = loop.run(controller_values=dict(law.start_values(), sample_period=spec.STEP),
+                 step=0.1, record=True)
+    assert res[-1]["L"] == pytest.approx(r.final["L"], rel=1e-12)
+    assert res[-1]["load_max"] == pytest.approx(r.final["load_max"], rel=1e-12)
+    # ... and the control is the coarse one: the landing moves by the plant's integration
+    # error only (RK4 sub-step 0.1 s instead of 0.5 s: < 1 m of 1395 km), not by the 159 m a
+    # controller acting every 0.1 s would cause
+    base = simulate_fmu(str(coarse), output=["L"])
+    assert abs(res[-1]["L"] - base[-1]["L"]) < 1.0
+    r10 = loop.run(controller_values=law.start_values(), step=0.1)
+    assert abs(r10.final["L"] - base[-1]["L"]) > 50.0
+
+
+def test_sample_period_equal_to_the_step_changes_nothing(loop):
+    # a controller sampled at the communication step acts at every step: bit-identical flights
+    law = NetworkOperator.paper_law()
+    a = loop.run(controller_values=law.start_values())
+    b = loop.run(controller_values=dict(law.start_values(), sample_period=spec.STEP))
+    c = loop.run(controller_values=dict(law.start_values(), sample_period=spec.STEP),
+                 step=spec.STEP / 2)       # the plant's sub-step is 0.5 s either way
+    assert a.final == b.final == c.final

@@ -1,0 +1,116 @@
+"""The Dask side of the evaluator: FMUs shipped to the workers, nothing path-based.
+
+A Dask worker may run on another host, in a container or under a batch system: it has the
+installed ``descent-fmus`` package and nothing of the client's disk.  The client therefore reads
+the two FMU files once and registers a :class:`FmuShipment` worker plugin carrying their bytes;
+the scheduler hands the plugin to every worker, present and joining later, and each worker
+writes the files once into its own local directory (``worker.local_directory``), under their
+content hash.  A task names the FMUs by (file name, hash) only.
+
+Worker loss costs nothing: the scheduler re-runs a lost task elsewhere (the evaluator also retries
+a failed chunk once).  A joining worker receives the plugin when it registers and then takes
+tasks like the others (work stealing moves queued tasks to it).
+
+This module imports ``distributed``; :mod:`synthesis.evaluator` imports it only when a scheduler
+is used.
+"""
+from __future__ import annotations
+
+import hashlib
+import os
+import uuid
+from dataclasses import dataclass
+from pathlib import Path
+
+from distributed import Client, get_worker
+from distributed.diagnostics.plugin import WorkerPlugin
+
+from descent_fmus.synthesis.paths import FMUNotFoundError, require_fmu
+
+__all__ = ["FmuFile", "FmuShipment", "shipped_path", "start_local_cluster",
+           "CACHE_DIR"]
+
+#: Folder inside a worker's local directory holding shipped FMUs (``<hash>/<file name>``).
+CACHE_DIR = "descent-fmus-fmus"
+
+
+@dataclass(frozen=True)
+class FmuFile:
+    """One FMU file as bytes, named by its file name and the SHA-256 of its content."""
+
+    name: str
+    digest: str
+    data: bytes
+
+    @classmethod
+    def read(cls, path) -> "FmuFile":
+        path = require_fmu(path)
+        data = path.read_bytes()
+        return cls(path.name, hashlib.sha256(data).hexdigest(), data)
+
+    @property
+    def ref(self) -> tuple:
+        """What a task carries: (file name, hash)."""
+        return (self.name, self.digest)
+
+
+def _cache_path(base, ref) -> Path:
+    name, digest = ref
+    return Path(base) / CACHE_DIR / digest / name
+
+
+def materialise(f: FmuFile, base) -> Path:
+    """Write ``f`` under ``base`` once (atomically; an existing file of that hash is kept)."""
+    path = _cache_path(base, f.ref)
+    if path.is_file() and path.stat().st_size == len(f.data):
+        return path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.write_bytes(f.data)
+    os.replace(tmp, path)
+    return path
+
+
+class FmuShipment(WorkerPlugin):
+    """Worker plugin writing a run's FMU files into each worker's local directory.
+
+    One plugin per evaluator (the run unregisters it when it ends, so that a long-lived
+    scheduler does not collect them); the files are kept by content hash, so a worker that
+    already has them (another run, a resumed run) writes nothing.
+    """
+
+    def __init__(self, files):
+        self.files = tuple(files)
+        digest = hashlib.sha256("".join(f.digest for f in self.files).encode()).hexdigest()
+        self.name = f"descent-fmus-{digest[:16]}-{uuid.uuid4().hex[:8]}"
+
+    def setup(self, worker):
+        for f in self.files:
+            materialise(f, worker.local_directory)
+
+
+def shipped_path(ref) -> Path:
+    """Path of a shipped FMU in this worker's local directory (FMUNotFoundError if absent)."""
+    worker = get_worker()
+    path = _cache_path(worker.local_directory, ref)
+    if not path.is_file():
+        raise FMUNotFoundError(f"FMU {ref[0]} (sha256 {ref[1][:12]}...) was not shipped to "
+                               f"Dask worker {worker.address}: the FmuShipment plugin did not "
+                               f"run there")
+    return path
+
+
+def start_local_cluster(workers: int):
+    """A Dask LocalCluster of ``workers`` single-threaded worker processes and its client.
+
+    Dask's worker processes watch a pipe to the process that started them and exit at once when
+    it dies (``distributed.process.AsyncProcess``), so they never outlive the run.
+    """
+    from distributed import LocalCluster
+    cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None)
+    try:
+        return cluster, Client(cluster, set_as_default=False)
+    except BaseException:
+        cluster.close()
+        raise
