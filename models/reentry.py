@@ -30,9 +30,9 @@ from descent_fmus.models.integrators import (EVENT, LEFT_DOMAIN, REACHED, DIVERG
                                              advance_to)
 from descent_fmus.models.params import ParameterError, Params, param
 
-__all__ = ["ReentryParams", "SECOND_SCENARIO", "rhs", "initial_state", "altitude", "downrange",
-           "deviations", "loads", "simulate", "ReentryIntegrator", "Reentry", "U_BOUNDS",
-           "T_PLUS"]
+__all__ = ["ReentryParams", "SECOND_SCENARIO", "rhs", "rhs_jacobians", "initial_state",
+           "altitude", "downrange", "deviations", "loads", "simulate", "ReentryIntegrator",
+           "Reentry", "U_BOUNDS", "T_PLUS"]
 
 #: Control bounds (relative change of drag).
 U_BOUNDS = (-0.2, 0.2)
@@ -97,6 +97,29 @@ def rhs(x, u, gm, kd, lam, rz):
     g = gm / (r2 * r)
     d = (1.0 + u) * kd * math.sqrt(x2 * x2 + x4 * x4) * math.exp(-lam * (r - rz))
     return (x2, -g * x1 - d * x2, x4, -g * x3 - d * x4)
+
+
+def rhs_jacobians(x, u, gm, kd, lam, rz):
+    """Partial derivatives of :func:`rhs`: ``(f_x, f_u)``, ``f_x[i][j] = d f_i / d x_j`` (4 x 4
+    nested tuples) and ``f_u[i] = d f_i / d u`` (the same equations, differentiated by hand; the
+    open-loop bound propagates sensitivities with them)."""
+    x1, x2, x3, x4 = x
+    r2 = x1 * x1 + x3 * x3
+    r = math.sqrt(r2)
+    g = gm / (r2 * r)
+    v = math.sqrt(x2 * x2 + x4 * x4)
+    e = kd * v * math.exp(-lam * (r - rz))       # drag factor per unit (1 + u)
+    d = (1.0 + u) * e
+    g1, g3 = -3.0 * g * x1 / r2, -3.0 * g * x3 / r2             # dg/dx1, dg/dx3
+    d1, d3 = -d * lam * x1 / r, -d * lam * x3 / r               # dd/dx1, dd/dx3
+    iv2 = 1.0 / (v * v) if v > 0.0 else 0.0
+    d2, d4 = d * x2 * iv2, d * x4 * iv2                         # dd/dx2, dd/dx4
+    fx = ((0.0, 1.0, 0.0, 0.0),
+          (-g - x1 * g1 - x2 * d1, -d - x2 * d2, -x1 * g3 - x2 * d3, -x2 * d4),
+          (0.0, 0.0, 0.0, 1.0),
+          (-x3 * g1 - x4 * d1, -x4 * d2, -g - x3 * g3 - x4 * d3, -d - x4 * d4))
+    fu = (0.0, -e * x2, 0.0, -e * x4)
+    return fx, fu
 
 
 def initial_state(p: ReentryParams) -> tuple:
@@ -200,6 +223,11 @@ class ReentryIntegrator(Integrator):
             self._sample(self.x, rhs(self.x, *args), u)
         elif outcome == DIVERGED:
             self.end(LEFT_DOMAIN, self.t)
+        else:
+            # the left-hand value at t_end: the load with the control held over this step.  The
+            # next step starts with the right-hand value (its own control), so both one-sided
+            # loads of a control change are measured -- the load jumps there with the drag.
+            self._sample(self.x, rhs(self.x, *args), u)
         self.u = u
 
 

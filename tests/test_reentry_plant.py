@@ -95,3 +95,49 @@ def test_rhs_at_a_point_matches_the_spec_formula():
 def test_bad_parameters_in_process(field, value, words):
     with pytest.raises(ParameterError, match=words):
         ReentryParams(**{field: value}).validate()
+
+
+def test_true_peak_of_a_sampled_flight_matches_solve_ivp(fmu_dir):
+    # The basic law through the FMUs (1 s zero-order hold): the plant's load_max is the maximum
+    # over time of the flight that happens, both one-sided loads at every control change
+    # included.  Oracle: DOP853 (rtol 1e-12) re-integration with the same held controls, the
+    # load on a 0.01 s grid of every hold interval plus both ends of it (the jumps).
+    from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+    from descent_fmus.synthesis.systems.reentry.flight import fly
+    f = fly(NetworkOperator.basic_law(), fmu_dir=fmu_dir, record=True)
+    u = f.result["ctrl.u[1]"]
+    kd = P.constants()[1]
+    x, peak = np.array(initial_state(P)), 0.0
+
+    def hit(t, x):
+        return math.hypot(x[0], x[2]) - P.Rz - P.hf
+    hit.terminal, hit.direction = True, -1
+    for k, uk in enumerate(u):
+        args = (float(uk),) + P.constants()
+        sol = solve_ivp(lambda t, y: rhs(tuple(y), *args), (k, k + 1.0), x, method="DOP853",
+                        rtol=1e-12, atol=1e-8, events=hit, dense_output=True)
+        for t in np.linspace(k, sol.t[-1], 101):
+            y = tuple(sol.sol(t))
+            peak = max(peak, loads(y, rhs(y, *args), kd, P.lam, P.Rz, P.g0, float(uk))[0])
+        x = sol.y[:, -1]
+        if sol.status == 1:
+            break
+    assert f.objectives["J1"] == pytest.approx(peak, rel=1e-4)
+    # the true peak of the basic law is 8.820 (the right-hand values alone gave 8.765)
+    assert peak == pytest.approx(8.820, abs=1e-3)
+
+
+def test_rhs_jacobians_match_central_differences():
+    # the hand-differentiated right-hand side (used by the open-loop bound's sensitivities)
+    # against central differences of rhs itself, at a point of the entry corridor
+    from descent_fmus.models.reentry import rhs_jacobians
+    x, u, c = (3.0e5, 7200.0, P.Rz + 6.0e4, -350.0), 0.13, P.constants()
+    fx, fu = rhs_jacobians(x, u, *c)
+    for j, h in enumerate((1.0, 1e-3, 1.0, 1e-3)):
+        xp, xm = list(x), list(x)
+        xp[j] += h
+        xm[j] -= h
+        col = (np.array(rhs(tuple(xp), u, *c)) - np.array(rhs(tuple(xm), u, *c))) / (2 * h)
+        assert np.allclose([row[j] for row in fx], col, rtol=1e-6, atol=1e-12)
+    du = (np.array(rhs(x, u + 1e-6, *c)) - np.array(rhs(x, u - 1e-6, *c))) / 2e-6
+    assert np.allclose(fu, du, rtol=1e-7, atol=1e-12)

@@ -1,12 +1,20 @@
 """``descent-fmus reentry fly | bound | robustness``."""
 from __future__ import annotations
 
+import argparse
 from pathlib import Path
 
-from descent_fmus.synthesis.cli_common import (CliError, add_common_options, emit, fmu_folder,
-                                               positive_int)
+from descent_fmus.synthesis.cli_common import (CliError, add_common_options, emit, finite_float,
+                                               fmu_folder, positive_float, positive_int)
 
 __all__ = ["add_commands"]
+
+
+def nonnegative_float(text: str) -> float:
+    v = finite_float(text)
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"must be >= 0, got {text!r}")
+    return v
 
 
 def add_commands(sub) -> None:
@@ -23,22 +31,43 @@ def add_commands(sub) -> None:
     add_common_options(p, plot="write a PNG of h(L), load(t) and u(t)")
     p.set_defaults(func=run_fly)
 
-    o = sub.add_parser("bound", help="the best open-loop program u(t) (min max load at zero "
-                       "miss): the bound for feedback laws")
-    o.add_argument("--segments", type=positive_int, default=120)
+    o = sub.add_parser("bound", help="the best open-loop program u(t) on the controller's 1 s "
+                       "grid (min true-peak max load at a miss tolerance): the bound for "
+                       "feedback laws")
+    o.add_argument("--t-seg", type=positive_float, default=1.0,
+                   help="segment length [s] (default 1: the closed loop's sample period)")
+    o.add_argument("--miss-tol", type=nonnegative_float, default=0.0,
+                   help="allowed miss |L(tf) - Lf| [m] (default 0; the synthesis report uses "
+                        "1000)")
     o.add_argument("--out", type=Path, default=None, metavar="FILE.json",
                    help="write the program as JSON")
     add_common_options(o, fmus=False, plot="PNG of u(t) and load(t)")
     o.set_defaults(func=run_bound)
 
-    r = sub.add_parser("robustness", help="Monte-Carlo over the dispersion set through the "
-                       "FMUs: laws vs the open-loop program flown blind")
+    r = sub.add_parser("robustness", help="guidance options over a held-out dispersion set "
+                       "through the FMUs: laws (with the drag estimator if they read y3), the "
+                       "NPC guidance, the blind open-loop program, the oracle bound")
     r.add_argument("--law", type=Path, action="append", default=[],
-                   help="law JSON (repeatable); the paper's basic law is always flown too")
-    r.add_argument("--program", type=Path, help="open-loop program JSON (reentry bound --out)")
-    r.add_argument("--samples", type=positive_int, default=100)
-    r.add_argument("--seed", type=int, default=7)
-    add_common_options(r, plot="PNG of miss and max load per law")
+                   help="law JSON of any S1 problem (repeatable); a law reading y3 flies with "
+                        "the drag estimator; the paper's basic law is always flown too")
+    r.add_argument("--program", type=Path, help="open-loop program JSON of the default scenario "
+                   "(reentry bound --out), flown blind")
+    r.add_argument("--program-second", type=Path, metavar="FILE",
+                   help="open-loop program JSON of the second scenario, flown blind")
+    r.add_argument("--samples", type=positive_int, default=200,
+                   help="held-out samples per scenario (default 200)")
+    r.add_argument("--seed", type=int, default=7, help="seed of the held-out set (default 7; "
+                   "the synthesis set is the nominal point + 15 uniform samples, seed 1: the sets are "
+                        "disjoint)")
+    r.add_argument("--scenario", choices=("default", "second", "both"), default="default",
+                   help="entry conditions (second: V0 8000 m/s, h0 80 km, beta0 -1.6 deg)")
+    r.add_argument("--no-npc", action="store_true", help="skip the NPC guidance")
+    r.add_argument("--no-oracle", action="store_true", help="skip the oracle bound")
+    r.add_argument("--noise", type=nonnegative_float, default=0.0, metavar="M/S2",
+                   help="accelerometer white noise of the drag estimator (default 0)")
+    r.add_argument("--bias", type=finite_float, default=0.0, metavar="M/S2",
+                   help="accelerometer bias of the drag estimator (default 0)")
+    add_common_options(r, plot="PNG of the miss CDFs against the oracle bound and J1 boxplots")
     r.set_defaults(func=run_robustness)
 
 
@@ -75,7 +104,7 @@ def run_fly(args) -> int:
 
 def run_bound(args) -> int:
     from descent_fmus.synthesis.systems.reentry.bound import optimize_open_loop, plot_program
-    prog = optimize_open_loop(segments=args.segments)
+    prog = optimize_open_loop(t_seg=args.t_seg, miss_tol=args.miss_tol)
     summary = prog.to_dict()
     summary.pop("u")
     if args.out:
@@ -85,9 +114,10 @@ def run_bound(args) -> int:
     if args.plot:
         plot_program(prog, args.plot)
         summary["plot"] = str(args.plot)
-    emit(args, summary, f"open-loop optimum (N = {args.segments}): J1 = {prog.J1:.4f}, miss = "
-         f"{prog.miss:.3g} m, landing at {prog.t_land:.2f} s ({prog.info['iterations']} SLSQP "
-         f"iterations, {prog.info['seconds']:.1f} s)"
+    emit(args, summary, f"open-loop optimum ({len(prog.u)} segments of {prog.t_seg:g} s, miss "
+         f"<= {args.miss_tol:g} m): J1 = {prog.J1:.4f}, miss = {prog.miss:.3g} m, landing at "
+         f"{prog.t_land:.2f} s ({prog.info['iterations']} SLSQP iterations, "
+         f"{prog.info['seconds']:.1f} s)"
          + (f"; program written to {args.out}" if args.out else ""))
     return 0
 
@@ -95,31 +125,31 @@ def run_bound(args) -> int:
 def run_robustness(args) -> int:
     from descent_fmus.synthesis.methods.network_operator import LawFileError, NetworkOperator
     from descent_fmus.synthesis.systems.reentry.bound import Program
-    from descent_fmus.synthesis.systems.reentry.robustness import dispersion_study, plot_study
+    from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
+                                                                      robust_study, table_lines)
 
-    laws = {"basic law (paper q)": NetworkOperator.basic_law()}
+    laws = {}
     for path in args.law:
         try:
             laws[Path(path).stem if Path(path).name != "law.json" else str(Path(path).parent)] \
                 = NetworkOperator.load(path)
         except (OSError, LawFileError) as exc:
             raise CliError(f"cannot read law {path}: {exc}") from None
-    program = None
-    if args.program:
-        try:
-            program = Program.load(args.program)
-        except (OSError, ValueError) as exc:
-            raise CliError(f"cannot read {args.program}: {exc}") from None
-    study = dispersion_study(laws, program, args.samples, args.seed, fmu_folder(args))
+    programs = {}
+    for scenario, path in (("default", args.program), ("second", args.program_second)):
+        if path:
+            try:
+                programs[scenario] = Program.load(path)
+            except (OSError, ValueError) as exc:
+                raise CliError(f"cannot read {path}: {exc}") from None
+    scenarios = ("default", "second") if args.scenario == "both" else (args.scenario,)
+    study = robust_study(laws, args.samples, args.seed, fmu_folder(args), scenarios,
+                         programs=programs, npc=not args.no_npc, oracle=not args.no_oracle,
+                         noise=args.noise, bias=args.bias)
+    summary = {k: v for k, v in study.items() if k != "scenarios"}
+    summary["scenarios"] = {n: {"stats": sc["stats"]} for n, sc in study["scenarios"].items()}
     if args.plot:
-        plot_study(study, args.plot)
-    lines = [f"{'law':40s} {'miss median':>12s} {'miss p95':>10s} {'miss max':>10s} "
-             f"{'J1 median':>10s} {'J1 max':>8s} {'landed':>7s}"]
-    for name, s in study["stats"].items():
-        lines.append(f"{name[:40]:40s} {s['miss_median'] / 1e3:10.2f}km "
-                     f"{s['miss_p95'] / 1e3:8.2f}km "
-                     f"{s['miss_max'] / 1e3:8.2f}km {s['J1_median']:10.3f} {s['J1_max']:8.3f} "
-                     f"{s['landed_fraction']:7.0%}")
-    emit(args, {"samples": args.samples, "seed": args.seed, "stats": study["stats"]},
-         "\n".join(lines))
+        plot_robust_study(study, args.plot)
+        summary["plot"] = str(args.plot)
+    emit(args, summary, "\n".join(table_lines(study)))
     return 0

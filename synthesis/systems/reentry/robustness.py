@@ -3,8 +3,9 @@
 Dispersion: rho0 +-15 %, m +-5 %, V0 +-50 m/s, beta0 +-0.03 deg, uniform, seeded (the first
 sample is the nominal flight).
 Every feedback law flies Reentry + NetworkOperatorController; the open-loop program is flown blind
-by Reentry + ProgramController (the nominal program replayed whatever the actual state), with the
-communication step equal to its segment length so that the nominal replay is the optimised flight.
+through the Reentry FMU (``bound.replay_program``: the nominal program replayed whatever the actual
+state, one value per communication step of its segment length), so that the nominal replay is
+the optimised flight.
 """
 from __future__ import annotations
 
@@ -15,12 +16,11 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.reentry import ReentryParams
-from descent_fmus.synthesis.cosim import STATUS_STOP, ClosedLoop, Wiring
+from descent_fmus.synthesis.cosim import ClosedLoop
 from descent_fmus.synthesis.dispersion import Box
 from descent_fmus.synthesis.systems.reentry import problems as spec
 
-__all__ = ["dispersion_box", "dispersion_samples", "dispersion_study", "plot_study",
-           "PROGRAM_WIRING"]
+__all__ = ["dispersion_box", "dispersion_samples", "dispersion_study", "plot_study"]
 
 #: Dispersion half-widths: rho0 and m relative, V0 [m/s] and beta0 [rad] absolute.
 RELATIVE = {"rho0": 0.15, "m": 0.05}
@@ -35,24 +35,6 @@ def dispersion_box(base: ReentryParams = ReentryParams()) -> Box:
 def dispersion_samples(n: int, seed: int, base: ReentryParams = ReentryParams()) -> list:
     """``n`` seeded ReentryParams drawn uniformly from the dispersion set (first = nominal)."""
     return [base.with_(**s) for s in dispersion_box(base).sample(n, seed, nominal_first=True)]
-
-
-def program_wiring(t_seg: float) -> Wiring:
-    return Wiring(name="ReentryProgram", plant="Reentry", controller="ProgramController",
-                  to_controller=(), to_plant=(("u[1]", "u"),), step=t_seg,
-                  stop_time=spec.WIRING.stop_time, stop=STATUS_STOP)
-
-
-PROGRAM_WIRING = program_wiring(2.5)
-
-
-def program_start_values(program) -> dict:
-    """ProgramController start values that replay a piecewise-constant program exactly at the
-    communication points k * t_seg (nodes at the segment starts)."""
-    from descent_fmus.models.controllers.program_table import N_CHANNELS, program_values
-    u = list(program.u) + [program.u[-1]]
-    return program_values(program.t_seg * len(program.u),
-                          [[v] + [0.0] * (N_CHANNELS - 1) for v in u])
 
 
 def _stats(rows) -> dict:
@@ -77,11 +59,9 @@ def dispersion_study(laws: dict, program, samples: int, seed: int, fmu_dir) -> d
             results[name] = [spec.objectives(loop.run(spec.plant_values(p), sv).final, p)
                              for p in params]
     if program is not None:
-        w = program_wiring(program.t_seg)
-        sv = program_start_values(program)
-        with ClosedLoop(w, fmu_dir / "Reentry.fmu", fmu_dir / "ProgramController.fmu") as loop:
-            results["open-loop program (blind)"] = [
-                spec.objectives(loop.run(spec.plant_values(p), sv).final, p) for p in params]
+        from descent_fmus.synthesis.systems.reentry.bound import replay_program
+        results["open-loop program (blind)"] = [
+            spec.objectives(replay_program(program, fmu_dir, p), p) for p in params]
     return {"params": [asdict(p) for p in params], "results": results,
             "stats": {k: _stats(v) for k, v in results.items()}}
 

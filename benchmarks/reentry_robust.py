@@ -1,0 +1,131 @@
+"""Benchmark: the S1 robust problems (reentry-sensed, reentry-sensed-y12).
+
+Prints
+
+1. the closed-loop container FMU path (instantiated once, reset per flight, one doStep over the
+   horizon: ``synthesis.runners.ContainerLoop``) against the Python master
+   (``synthesis.cosim.ClosedLoop``) for the same law over the 16 points of the synthesis set,
+   as ratios of wall time and of CPU time (median of interleaved repetitions), for the law of
+   y1, y2 (NetworkOperatorController, 3 connections) and the law reading y3
+   (SensedNetworkOperatorController, 7 connections);
+2. evaluations/s of the robust problem (laws/s and flights/s; racing included) with 1 and 2
+   local workers on the GA's first population, and their ratio; with 2 workers also without
+   racing (every law flies the whole set);
+3. the estimated wall time of the default budget with 2 workers.
+
+    python benchmarks/reentry_robust.py [--repeat N] [--fmus DIR] [--json]
+
+On a machine shared with other jobs the wall times spread widely; the CPU-time ratio of item 1
+is the robust number.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import time
+from pathlib import Path
+
+from descent_fmus.synthesis.cosim import ClosedLoop
+from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.runners import ContainerLoop, Runner
+from descent_fmus.synthesis.synthesize import make_ga
+from descent_fmus.synthesis.systems.reentry import sensed
+
+
+def _set_times(loop, problem, law):
+    sv = law.start_values()
+    w0, c0 = time.perf_counter(), time.process_time()
+    for s in problem.initial_states:
+        loop.run(plant_values=s, controller_values=sv)
+    return time.perf_counter() - w0, time.process_time() - c0
+
+
+def container_vs_master(problem, fmus: Path, repeat: int) -> dict:
+    plant, ctrl = problem.fmu_paths(fmus)
+    law = problem.basic_law
+    master, container = ClosedLoop(problem.wiring, plant, ctrl), \
+        ContainerLoop(problem.wiring, plant, ctrl)
+    try:
+        _set_times(master, problem, law)
+        _set_times(container, problem, law)          # warm-up
+        m, c = [], []
+        for _ in range(repeat):
+            m.append(_set_times(master, problem, law))
+            c.append(_set_times(container, problem, law))
+    finally:
+        master.close()
+        container.close()
+    n = len(problem.initial_states)
+    mw, mc = statistics.median(t[0] for t in m), statistics.median(t[1] for t in m)
+    cw, cc = statistics.median(t[0] for t in c), statistics.median(t[1] for t in c)
+    return {"connections": len(problem.wiring.to_controller) + len(problem.wiring.to_plant),
+            "master_ms_per_flight": 1e3 * mw / n, "container_ms_per_flight": 1e3 * cw / n,
+            "master_cpu_ms_per_flight": 1e3 * mc / n,
+            "container_cpu_ms_per_flight": 1e3 * cc / n,
+            "speedup_wall": mw / cw, "speedup_cpu": mc / cc}
+
+
+def evaluation_rate(problem, fmus: Path, workers: int) -> dict:
+    laws = make_ga(problem, problem.budget).ask()
+    with Evaluator(problem, fmus, workers=workers) as ev:
+        ev.evaluate(laws[:2 * workers])               # start-up (pool, FMU loading) excluded
+        todo = laws[2 * workers:]
+        t0 = time.perf_counter()
+        _, extras = ev.evaluate(todo)
+        dt = time.perf_counter() - t0
+    flights = sum(e.get("flights", len(problem.initial_states)) for e in extras)
+    return {"laws": len(todo), "seconds": dt, "laws_per_s": len(todo) / dt,
+            "flights_per_s": flights / dt,
+            "raced_out": sum(1 for e in extras if e.get("raced_out"))}
+
+
+def budget_laws(problem) -> int:
+    b = problem.budget
+    epochs = b.generations // b.epoch
+    return b.population + b.generations * 4 * b.crossovers + epochs * b.refine_laws * \
+        b.refine_evals
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    problems = {p.name: p for p in sensed.problems()}
+    out = {"container_vs_master": {}, "evaluations": {}}
+    for name, pb in problems.items():
+        out["container_vs_master"][name] = container_vs_master(pb, args.fmus, args.repeat)
+    pb = problems["reentry-sensed"]
+    for w in (1, 2):
+        out["evaluations"][f"{w} worker(s)"] = evaluation_rate(pb, args.fmus, w)
+    # the same laws without racing: every law flies the whole set
+    full = pb.with_(runner=Runner(container=pb.runner.container, race=None))
+    out["evaluations"]["2 worker(s), no racing"] = evaluation_rate(full, args.fmus, 2)
+    r1, r2 = (out["evaluations"][k]["laws_per_s"] for k in ("1 worker(s)", "2 worker(s)"))
+    out["two_workers_speedup"] = r2 / r1
+    n = budget_laws(pb)
+    out["default_budget"] = {"laws": n, "estimated_minutes_2_workers": n / r2 / 60.0}
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return
+    print("container FMU path vs Python master (16 flights of the synthesis set, median of "
+          f"{args.repeat})")
+    for name, r in out["container_vs_master"].items():
+        print(f"  {name:20s} {r['connections']} connections: master {r['master_ms_per_flight']:.1f}"
+              f" ms/flight, container {r['container_ms_per_flight']:.1f} ms/flight; speed-up "
+              f"wall {r['speedup_wall']:.2f}x, CPU {r['speedup_cpu']:.2f}x")
+    print("evaluations of reentry-sensed (GA's first population, racing on)")
+    for k, r in out["evaluations"].items():
+        print(f"  {k}: {r['laws_per_s']:.2f} laws/s, {r['flights_per_s']:.1f} flights/s "
+              f"({r['laws']} laws, {r['raced_out']} raced out)")
+    print(f"  2 workers / 1 worker (racing on): {out['two_workers_speedup']:.2f}x")
+    d = out["default_budget"]
+    print(f"default budget: ~{d['laws']} laws, estimated {d['estimated_minutes_2_workers']:.1f} "
+          f"min with 2 workers")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,95 @@
+#!/usr/bin/env python
+"""Make the S1 robust-guidance figure and numbers of the docs (every flight through the FMUs).
+
+From the runs of ``synthesize reentry-sensed`` (law of y1, y2, y3), ``synthesize
+reentry-sensed-y12`` (y1, y2 only) and, if given, ``synthesize reentry-sensed --method
+cma-polynomial`` (the CMA-ES baseline), the robust law of each (``sensed.best_row``: lowest J2
+with median J1 < 9.0 and the nominal flight within 1 km) is flown over the held-out set (200 uniform samples, seed 7, disjoint
+from the synthesis set) of both scenarios with the paper's basic law, the nominal synthesised
+law (tests/reference/reentry_best_law.json), the NPC guidance, the best open-loop program of
+each scenario flown blind and the oracle bound.  Writes
+
+* ``docs/reentry_robust.png`` -- miss CDFs against the oracle, J1 boxplots;
+* ``docs/reentry_robust.json`` -- the table's numbers;
+* ``synthesis/systems/reentry/sensed_law.json`` -- the robust law (the default law of the built
+  ``ReentrySensedClosedLoop.fmu``; the tests fly it).
+
+    python docs/make_reentry_robust_figures.py SENSED_RUN Y12_RUN [--cma CMA_RUN]
+        [--samples 200] [--seed 7] [--fmus DIR] [--programs DIR]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
+from descent_fmus.synthesis.cli_common import json_safe
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.systems.reentry import sensed
+from descent_fmus.synthesis.systems.reentry.bound import Program, optimize_open_loop
+from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
+                                                                  robust_study, table_lines)
+
+DOCS = ROOT / "docs"
+
+
+def best_law(run: Path) -> tuple[NetworkOperator, dict]:
+    """The run's robust law (sensed.best_row: lowest J2 with median J1 < 9.0 and the nominal
+    flight within 1 km)."""
+    row = sensed.best_row(json.loads((run / "pareto.json").read_text()))
+    if row is None:
+        raise SystemExit(f"{run}: no law with median J1 < {sensed.J1_LIMIT}")
+    return NetworkOperator.from_dict(row["law"]), row
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("sensed_run", type=Path)
+    ap.add_argument("y12_run", type=Path)
+    ap.add_argument("--cma", type=Path, help="run of --method cma-polynomial")
+    ap.add_argument("--samples", type=int, default=200)
+    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
+    ap.add_argument("--programs", type=Path, metavar="DIR",
+                    help="folder caching the best open-loop programs of both scenarios "
+                         "(open_loop_default.json, open_loop_second.json)")
+    args = ap.parse_args(argv)
+    import matplotlib
+    matplotlib.use("Agg")
+
+    laws, rows = {}, {}
+    law, rows["sensed"] = best_law(args.sensed_run)
+    law.save(sensed.DEFAULT_LAW_FILE)
+    laws["synthesised, y1 y2 y3 (sensed)"] = law
+    laws["synthesised, y1 y2 (same objective)"], rows["y12"] = best_law(args.y12_run)
+    if args.cma:
+        laws["CMA-ES polynomial, y1 y2 y3"], rows["cma"] = best_law(args.cma)
+    laws["nominal synthesised law"] = NetworkOperator.load(
+        ROOT / "tests" / "reference" / "reentry_best_law.json")
+    programs = {}
+    for name, params in (("default", ReentryParams()), ("second", SECOND_SCENARIO)):
+        cached = args.programs / f"open_loop_{name}.json" if args.programs else None
+        if cached is not None and cached.exists():
+            programs[name] = Program.load(cached)
+            continue
+        programs[name] = optimize_open_loop(params)
+        if cached is not None:
+            cached.parent.mkdir(parents=True, exist_ok=True)
+            programs[name].save(cached)
+    study = robust_study(laws, args.samples, args.seed, args.fmus, ("default", "second"),
+                         programs=programs)
+    plot_robust_study(study, DOCS / "reentry_robust.png")
+    summary = {k: v for k, v in study.items() if k != "scenarios"}
+    summary["scenarios"] = {n: {"stats": sc["stats"]} for n, sc in study["scenarios"].items()}
+    summary["laws"] = {k: {"formula": r["formula"], "readable": r.get("readable"),
+                           "J1": r["J1"], "J2": r["J2"]} for k, r in rows.items()}
+    (DOCS / "reentry_robust.json").write_text(json.dumps(json_safe(summary), indent=1))
+    print("\n".join(table_lines(study)))
+
+
+if __name__ == "__main__":
+    main()

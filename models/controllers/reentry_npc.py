@@ -1,0 +1,159 @@
+"""S1 numerical predictor-corrector (NPC) guidance: the industry anchor for the synthesised laws.
+
+Every guidance cycle the controller integrates the nominal model (:func:`models.reentry.rhs`,
+the one definition of the equations) with the estimated drag factor (the
+:class:`~models.controllers.drag_estimator.DragFactorEstimator` inside this FMU) from the
+navigated state to the altitude hf, and solves for the constant control u in [-0.2, 0.2] whose
+predicted down-range at hf is Lf (Brent's method, scipy, on the bracket the previous solution
+and a bound give); if even a bound cannot null the predicted miss, u is that bound.
+The control is held until the next cycle.
+
+The prediction uses the plant's RK4 scheme (:func:`models.integrators.advance_to`) on a coarser
+step ``dt_pred`` and locates h = hf inside the step, as the plant does.
+
+References
+----------
+Predictor-corrector entry guidance (e.g. Lu, "Entry guidance: a unified method", J. Guidance,
+Control, and Dynamics 37(3), 2014): predict the terminal condition by integrating the model
+on board, correct the control parameter by a root search.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from descent_fmus.models.controllers.drag_estimator import (DragEstimatorParams,
+                                                            _EstimatorInputs)
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.integrators import EVENT, advance_to
+from descent_fmus.models.params import param
+from descent_fmus.models.reentry import T_PLUS, U_BOUNDS, ReentryParams, altitude, downrange, rhs
+
+__all__ = ["NPCParams", "predict_range", "solve_control", "ReentryNPC"]
+
+#: Prediction horizon beyond the current time [s] (a flight that has not reached hf by then
+#: counts as flying too far).
+HORIZON = 2.0 * T_PLUS
+#: Predicted range of a flight that does not reach hf within the horizon [m].
+NOT_REACHED = 1.0e9
+
+
+@dataclass(frozen=True)
+class NPCParams(DragEstimatorParams):
+    """Parameters of the NPC guidance (plus the estimator's)."""
+
+    cycle: float = param(10.0, "s", "guidance period: the predicted miss is nulled every cycle",
+                         positive=True)
+    dt_pred: float = param(2.0, "s", "RK4 step of the on-board prediction", positive=True)
+    tol: float = param(20.0, "m", "predicted-miss tolerance of the root search", positive=True)
+    max_iter: int = param(20, "1", "iterations of the root search per cycle at most",
+                          positive=True)
+
+
+def predict_range(x, u: float, kd: float, model: ReentryParams = ReentryParams(),
+                  dt: float = 2.0) -> float:
+    """Predicted down-range [m] at h = hf from state ``x`` with the control held at ``u`` and the
+    drag factor ``kd`` = S rho0 / m [1/m]; :data:`NOT_REACHED` if hf is not reached within the
+    horizon (a flight that goes on counts as far too long)."""
+    gm, _, lam, rz = model.constants()
+    rz_hf = rz + model.hf
+    xe, _, outcome = advance_to(rhs, tuple(x), 0.0, HORIZON, dt, (u, gm, kd, lam, rz),
+                                event=lambda y: math.hypot(y[0], y[2]) - rz_hf)
+    return downrange(xe, rz) if outcome == EVENT else NOT_REACHED
+
+
+def solve_control(miss, u0: float, tol: float, max_iter: int, bounds=U_BOUNDS):
+    """The u in ``bounds`` with ``miss(u) = 0`` (``miss`` decreasing in u), from the guess u0.
+
+    The guess and one bound bracket the root (if even the bound cannot null the miss, that
+    bound is the answer); Brent's method (scipy) then finds it to ``tol`` metres of miss.
+    Returns ``(u, miss(u), evaluations)``.
+    """
+    from scipy.optimize import brentq
+    lo, hi = bounds
+    u0 = min(max(u0, lo), hi)
+    f0 = miss(u0)
+    if abs(f0) <= tol:
+        return u0, f0, 1
+    end = hi if f0 > 0.0 else lo                  # too far: more drag; too short: less
+    fe = miss(end)
+    if (fe >= 0.0) == (f0 > 0.0):
+        return end, fe, 2
+    calls = [2]
+
+    def counted(u):
+        calls[0] += 1
+        return miss(u)
+    slope = abs(fe - f0) / abs(end - u0)          # m of miss per unit of u over the bracket
+    u = brentq(counted, min(u0, end), max(u0, end), xtol=tol / slope, maxiter=max_iter,
+               disp=False)
+    return u, miss(u), calls[0] + 1
+
+
+class ReentryNPC(_EstimatorInputs, SlaveBase):
+    """FMU of the NPC guidance.
+
+    Inputs ``a_drag`` (the plant's aero_load) and the navigated state ``nav_x1..nav_x4``;
+    outputs ``u`` (in [-0.2, 0.2], held over a cycle), ``predicted_miss`` [m] (predicted
+    L(hf) - Lf at the last correction), ``drag_factor_log`` (the estimate y3), ``drag_factor``
+    and ``predictions`` (predictions so far).  The nominal model is the default scenario's
+    :class:`models.reentry.ReentryParams` (target hf, Lf).
+    """
+
+    params_class = NPCParams
+    description = ("S1 numerical predictor-corrector guidance: every cycle, the constant u that "
+                   "nulls the miss predicted with the nominal model and the estimated drag factor")
+
+    def __init__(self, **kwargs):
+        super().__init__(**kwargs)
+        self.register_estimator(on_input=self._touch)
+        self.output("u", "control: relative change of drag, in [-0.2, 0.2] [1]",
+                    getter=lambda: self._command()[0])
+        self.output("predicted_miss", "predicted L(hf) - Lf at the last correction [m]",
+                    getter=lambda: self._command()[1])
+        self.int_output("predictions", "on-board predictions so far [1]",
+                        getter=lambda: self._n_pred)
+        self.apply_resource_defaults()
+        self.prepare()
+
+    def prepare(self) -> None:
+        p = self.params()
+        self._estimator = None
+        self._model = ReentryParams()
+        self._kd = self._model.constants()[1]
+        self._t = 0.0
+        self._next = 0.0
+        self._u = 0.0
+        self._miss = 0.0
+        self._n_pred = 0
+        self._fresh = False          # the command of this communication point is computed
+        self._cycle = p.cycle
+
+    def _touch(self):
+        self._fresh = False
+
+    def _command(self):
+        if not self._fresh:
+            self._fresh = True
+            x = self.nav_state()
+            if self._t >= self._next - 1e-9 and altitude(x, self._model.Rz) > self._model.hf:
+                self._correct(x)
+                self._next += self._cycle * max(1, math.ceil((self._t - self._next) /
+                                                             self._cycle + 1e-9))
+        return self._u, self._miss
+
+    def _correct(self, x) -> None:
+        kd = self._kd * math.exp(self.current_estimate())
+        lf, dt = self._model.Lf, self.dt_pred
+
+        def miss(u):
+            return predict_range(x, u, kd, self._model, dt) - lf
+
+        self._u, self._miss, n = solve_control(miss, self._u, self.tol, self.max_iter)
+        self._n_pred += n
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        self.commit_sample(self._command()[0])
+        self._t = current_time + step_size
+        self._fresh = False
+        return True
