@@ -9,16 +9,18 @@ One pattern: general commands act on any problem, system commands are
     descent-fmus reentry fly | bound | robustness
     descent-fmus mars fly
     descent-fmus lunar-landing solve | fly
-    descent-fmus telescope reorient | write-programs
+    descent-fmus telescope reorient | route | write-programs
     descent-fmus lunar-descent report
 
 Every command takes ``--json``; ``--plot FILE.png`` writes a figure (nothing is written unless
-asked).  A user error ends with one line and exit code 2.
+asked).  A user error ends with one line and exit code 2; a run stopped by SIGINT/SIGTERM keeps
+its checkpoint, says how to resume and exits with 130/143.
 """
 from __future__ import annotations
 
 import argparse
 import os
+import shlex
 import sys
 from pathlib import Path
 
@@ -36,6 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND",
                             parser_class=OneLineParser)
     _add_synthesize(sub)
+    from descent_fmus.synthesis.law_export import add_export_law_command
+    add_export_law_command(sub)
+    from descent_fmus.synthesis.fine_output import add_fine_output_command
+    add_fine_output_command(sub)
     p = sub.add_parser("problems", help="list the registered synthesis problems and systems")
     add_common_options(p, fmus=False)
     p.set_defaults(func=run_problems)
@@ -73,15 +79,34 @@ def _add_synthesize(sub) -> None:
     g.add_argument("--epoch", type=positive_int, default=None,
                    help="generations between changes of the basic solution")
     g.add_argument("--seed", type=int, default=None, help="random seed; same seed, same result")
+    g.add_argument("--refine-evals", type=nonnegative_int, default=None,
+                   help="CMA-ES evaluations per parameter refinement inside the GA (0 = the "
+                        "GA alone)")
+    g.add_argument("--flights", type=nonnegative_int, default=None,
+                   help="flight budget (closed-loop simulations): a cma-* method flies this "
+                        "many; the network operator stops there too (0 = by generations)")
+    p.add_argument("--method", default="network-operator",
+                   help="network-operator (default: the variational GA) or cma-<baseline>: "
+                        "CMA-ES over the parameters of one of the problem's fixed structures "
+                        "(reentry: cma-basic, cma-polynomial, cma-tanh), same evaluator")
     p.add_argument("--wide-ops", action="store_true",
                    help="let variations use the authors' wider operation set (28 unary, 4 binary)")
     p.add_argument("--workers", type=positive_int, default=2, help="local worker processes")
     p.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT): evaluate on "
-                   "that cluster instead of local processes")
+                   "that cluster instead of local processes (its workers need only the "
+                   "installed package; the FMUs are shipped); 'local': a Dask LocalCluster of "
+                   "--workers processes")
     p.add_argument("--out", type=Path, default=Path("runs/synthesis"),
                    help="output folder (default runs/synthesis)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out")
     p.add_argument("--no-export", action="store_true", help="skip exporting the Pareto laws")
+    p.add_argument("--export", choices=("laws", "all"), default="laws",
+                   help="per Pareto law: 'laws' = law.json (with the readable formula), "
+                        "law.h/law.c and the law FMU (default); 'all' = also its closed-loop "
+                        "FMU and SSP (about 1.7 MB a law)")
+    p.add_argument("--law-fmu", choices=("native", "python"), default=None,
+                   help="the law FMUs: native C (default where a C compiler exists) or the "
+                        "pythonfmu controller with the law as defaults")
     p.add_argument("--no-reference", action="store_true",
                    help="skip the problem's expensive report reference (reentry: the open-loop "
                         "bound, ~20 s)")
@@ -108,8 +133,22 @@ def load_problem(args):
         raise CliError(str(exc)) from None
 
 
+def _law_export(args):
+    """What ``synthesize`` exports per Pareto law (``--no-export``, ``--export``,
+    ``--law-fmu``); a compiler missing for ``--law-fmu native`` is a user error."""
+    from descent_fmus.synthesis.law_export import LawExport, choose_law_fmu
+    from descent_fmus.synthesis.native.build import CompilerNotFoundError
+    if args.no_export:
+        return False
+    try:
+        choose_law_fmu(args.law_fmu or "auto")
+    except CompilerNotFoundError as exc:
+        raise CliError(str(exc)) from None
+    return LawExport(law_fmu=args.law_fmu or "auto", closed_loops=args.export == "all")
+
+
 def run_synthesize(args) -> int:
-    from descent_fmus.synthesis.evaluator import SchedulerError
+    from descent_fmus.synthesis.evaluator import SchedulerError, SystematicFailure
     from descent_fmus.synthesis.paths import FMUNotFoundError
     from descent_fmus.synthesis.synthesize import RunDirError, run_synthesis
 
@@ -118,24 +157,37 @@ def run_synthesize(args) -> int:
         budget = problem.budget.with_(population=args.population,
                                       generations=args.generations,
                                       crossovers=args.crossovers, lchr=args.lchr,
-                                      epoch=args.epoch, seed=args.seed)
+                                      epoch=args.epoch, seed=args.seed,
+                                      flights=args.flights, refine_evals=args.refine_evals)
     except ValueError as exc:
         raise CliError(str(exc)) from None
+    from descent_fmus.synthesis.synthesize import methods
+    if args.method not in methods(problem):
+        raise CliError(f"unknown method {args.method!r} for problem {problem.name}; available: "
+                       f"{', '.join(methods(problem))}")
+    if args.method != "network-operator" and budget.flights < 1:
+        raise CliError(f"method {args.method} needs a flight budget: give --flights N")
     try:
         summary = run_synthesis(problem, args.out, fmu_folder(args), budget,
                                 workers=args.workers, scheduler=args.scheduler,
                                 resume=args.resume, wide_ops=args.wide_ops,
                                 progress=not (args.quiet or args.json),
-                                export=not args.no_export, reference=not args.no_reference)
-    except (RunDirError, SchedulerError, FMUNotFoundError) as exc:
+                                export=_law_export(args), reference=not args.no_reference,
+                                method=args.method)
+    except (RunDirError, SchedulerError, FMUNotFoundError, SystematicFailure) as exc:
         raise CliError(str(exc)) from None
     short = {k: v for k, v in summary.items() if k != "pareto"}
-    lines = [f"synthesis of {problem.name}: {summary['generations']} generations, "
+    lines = [f"synthesis of {problem.name} ({args.method}): {summary['generations']} "
+             f"generations, "
              f"{summary['simulated']} closed-loop simulations in {summary['seconds']:.0f} s "
              f"({summary['evaluations_per_second']:.0f}/s, {summary['failures']} failed), "
              f"{summary['pareto_size']} Pareto laws",
              f"  results in {args.out}: pareto.csv, pareto.json, pareto.png, summary.json"
              + (", laws/<k>/" if not args.no_export else "")]
+    if summary.get("first_failure"):       # failed candidates were penalised: the first reason
+        lines.append(f"  first failed evaluation: {summary['first_failure']}")
+    if summary.get("law_fmu_note"):
+        lines.append(f"  note: {summary['law_fmu_note']}")
     lines += problem.report.lines(summary)
     emit(args, short, "\n".join(lines))
     return 0
@@ -181,6 +233,7 @@ def main(argv=None) -> int:
     from descent_fmus.models.controllers.network_operator import MatrixError
     from descent_fmus.models.params import ParameterError
     from descent_fmus.synthesis.cosim import FMUError
+    from descent_fmus.synthesis.interrupt import RunInterrupted
 
     ap = build_parser()
     args = ap.parse_args(argv)
@@ -195,6 +248,14 @@ def main(argv=None) -> int:
         # rejecting a value): one line, no traceback
         print(f"descent-fmus {name}: error: {exc}", file=sys.stderr)
         return 2
+    except RunInterrupted as exc:
+        # a run stopped on SIGTERM/SIGINT: where it stands and how to continue, one line
+        argv = list(sys.argv[1:] if argv is None else argv)
+        how = (" -- continue with: descent-fmus " + shlex.join(
+            argv + ([] if "--resume" in argv else ["--resume"])))
+        print(f"descent-fmus {name}: {exc}" + (how if getattr(exc, "resumable", False) else ""),
+              file=sys.stderr)
+        return exc.exit_code
     except KeyboardInterrupt:
         print(f"descent-fmus {name}: interrupted", file=sys.stderr)
         return 130

@@ -48,15 +48,22 @@ class Budget:
     epoch: int = 12           #: generations between changes of the basic solution
     seed: int = 1
     elite_trim: int = 4       #: Pareto members whose variation lists are trimmed per epoch
+    refine_evals: int = 0     #: CMA-ES evaluations per refined law and epoch (0 = GA only)
+    refine_laws: int = 1      #: laws whose parameters CMA-ES refines per epoch
+    flights: int = 0          #: flight budget: cma-* runs fly this many; the GA stops there
+                              #: too (0 = by generations only)
 
     def __post_init__(self):
         if self.generations < 0:
             raise ValueError(f"generations must be >= 0, got {self.generations}")
+        if self.flights < 0:
+            raise ValueError(f"flights must be >= 0, got {self.flights}")
         self.ga_config()          # validates the GA sizes
 
     def ga_config(self) -> GAConfig:
         return GAConfig(population=self.population, crossovers=self.crossovers,
-                        lchr=self.lchr, epoch=self.epoch, elite_trim=self.elite_trim)
+                        lchr=self.lchr, epoch=self.epoch, elite_trim=self.elite_trim,
+                        refine_evals=self.refine_evals, refine_laws=self.refine_laws)
 
     def with_(self, **changes) -> "Budget":
         """A copy with the given fields changed (``None`` values are ignored)."""
@@ -125,6 +132,16 @@ class SynthesisProblem:
         A relative path is taken relative to the FMU folder.
     source : str
         Where the problem comes from (a registered system, or a problem file and its hash).
+    target : Target or None
+        The single objective of CMA-ES (parameter refinement inside the GA, fixed-structure
+        baselines), e.g. J1 subject to J2 < 1 km (:class:`synthesis.methods.policy_search.Target`).
+    baselines : callable or None
+        ``() -> {name: NetworkOperator}``: fixed law structures whose parameters CMA-ES tunes
+        (``synthesize --method cma-NAME``), the comparison for the network-operator search.
+    runner : Runner or None
+        How a law is flown (:class:`synthesis.runners.Runner`: the closed-loop container FMU
+        instead of the Python master, racing over the initial states); None = every initial
+        state through :class:`~synthesis.cosim.ClosedLoop`.
     """
 
     name: str
@@ -145,6 +162,9 @@ class SynthesisProblem:
     plant_fmu: str | None = None
     controller_fmu: str | None = None
     source: str = ""
+    target: object = None
+    baselines: Callable | None = None
+    runner: object = None
 
     def __post_init__(self):
         if not self.initial_states:

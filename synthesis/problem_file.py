@@ -54,6 +54,7 @@ ends, the initial states, the objectives and the basic law.  The format, key by 
     epoch = 8
     seed = 1
     q_range = [-16.0, 16.0]               # range of the parameters' Gray code
+    q_bits = [4, 12]                      # its integer and fraction bits (default 4 + 12)
     # unary = [1, 3, 4, 5, 8, 9, 10, 14, 15]   binary = [1, 2]   (operation numbers)
 
 Every error names the file, the key and the problem (:class:`ProblemFileError`); nothing is
@@ -92,7 +93,7 @@ _KEYS = {
     "objectives": {"name", "flight", "over_states", "unmet_stop_penalty", "penalty"},
     "basic_law": {"gains", "bias", "size", "file", "psi", "q", "outputs"},
     "ga": {"population", "generations", "crossovers", "lchr", "epoch", "seed", "q_range",
-           "unary", "binary"},
+           "q_bits", "unary", "binary"},
 }
 _OVER = ("sum", "mean", "max")
 
@@ -498,6 +499,15 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
                                                                for x in qr) and qr[0] < qr[1]):
             raise rd.error("ga.q_range", f"must be [min, max] with min < max, got {qr!r}")
         q_lo, q_hi = float(qr[0]), float(qr[1])
+    q_ib, q_fb = 4, 12
+    if "q_bits" in ga:
+        qb = ga["q_bits"]
+        if not (isinstance(qb, list) and len(qb) == 2 and all(isinstance(x, int) and x >= 0
+                                                               for x in qb)
+                and 1 <= sum(qb) <= 30):
+            raise rd.error("ga.q_bits", f"must be [integer bits, fraction bits] with 1 to 30 "
+                                        f"bits in all, got {qb!r}")
+        q_ib, q_fb = qb
     if any(not q_lo <= v < q_hi for v in law.q):
         raise rd.error("ga.q_range", f"the basic law's parameters {law.q} must lie in "
                                      f"[{q_lo}, {q_hi})")
@@ -526,6 +536,6 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         objectives=FileObjectives(tuple(objectives), tuple(law_signals.items()),
                                   stop is not None),
         objective_names=tuple(names), penalty=tuple(penalty), basic_law=law, budget=budget,
-        unary=ops["unary"], binary=ops["binary"], q_bits=(4, 12, q_lo, q_hi),
+        unary=ops["unary"], binary=ops["binary"], q_bits=(q_ib, q_fb, q_lo, q_hi),
         record=tuple(record), plant_fmu=str(plant_path), controller_fmu=str(ctrl_path),
         source=f"file {path.name} sha256:{digest}")

@@ -33,6 +33,7 @@ def fmu_dir() -> Path:
 
 @pytest.fixture(scope="session")
 def open_loop_program():
-    """The best open-loop S1 program, N = 120 (reentry bound; ~20 s, computed once)."""
+    """The best open-loop S1 program on the controller's 1 s grid at zero miss (the reentry
+    bound, true-peak load; ~25 s, computed once)."""
     from descent_fmus.synthesis.systems.reentry.bound import optimize_open_loop
-    return optimize_open_loop(segments=120)
+    return optimize_open_loop()

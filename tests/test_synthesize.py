@@ -102,7 +102,7 @@ def test_killed_cli_run_resumes(fmu_dir, tmp_path):
     args = [sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize", "reentry", "--population", "16",
             "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
             "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-reference",
-            "--fmus", str(fmu_dir)]
+            "--refine-evals", "20", "--fmus", str(fmu_dir)]
     subprocess.run(args + ["--out", str(tmp_path / "ref")], check=True, cwd=ROOT,
                    capture_output=True)
     out = tmp_path / "killed"

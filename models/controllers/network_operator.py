@@ -24,6 +24,7 @@ method in control problems", Vestnik RUDN, 2007, no. 4.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 from pythonfmu import Fmi2Causality, Fmi2Variability, Integer
 
@@ -31,7 +32,8 @@ from descent_fmus.models.fmu_support import ParameterError, SlaveBase
 
 __all__ = ["BIG", "UNARY", "BINARY", "UNIT", "UNARY_NAMES", "BINARY_NAMES", "compile_law",
            "evaluate", "NetworkOperatorController", "L_MAX", "NX_MAX", "NQ_MAX", "NU_MAX",
-           "MatrixError"]
+           "MatrixError", "Operation", "UNARY_OPS", "BINARY_OPS", "CONSTANTS", "HELPERS",
+           "FUNCTIONS", "python_function", "finite", "DESCRIPTIONS"]
 
 #: The authors' "infinity": every node value is clamped to [-BIG, BIG].
 BIG = 1e8
@@ -51,86 +53,144 @@ class MatrixError(ValueError):
     """A network-operator matrix or its node map is malformed."""
 
 
-def _sgn(z):           # the seed's sign: 1 for z >= 0, else -1 (rho10)
-    return 1.0 if z >= 0.0 else -1.0
+# -- the operations: one table, rendered to Python here and to C by synthesis.native ----------
+#
+# Every operation is ONE expression in a small language -- Python's expression syntax limited
+# to the operand names (z; a, b), float literals, the named constants of CONSTANTS, + - * /,
+# comparisons, ``x if c else y`` and the functions of FUNCTIONS -- so that the Python
+# evaluation below and the C code of a native law FMU are the same IEEE operations in the same
+# order: the two give bitwise equal results (both call the platform's C math library).
+
+#: Named constants of the operation language (values as Python computes them).
+CONSTANTS = {"BIG": BIG, "EPS5": _EPS5, "EPS": _EPS, "LN_BIG": _LN_BIG,
+             "LOG_EPS": math.log(_EPS)}
+#: Helper functions of the operation language, themselves expressions: name -> (operands,
+#: expr).  ``finite`` is the clamp after every operation (written inline in :func:`evaluate`),
+#: ``clip`` the output bounds, ``scale`` the input scaling.
+HELPERS = {
+    "sgn": ("z", "1.0 if z >= 0.0 else -1.0"),           # the authors' sign: 1 for z >= 0
+    "gexp": ("z", "BIG if z > LN_BIG else exp(z)"),       # e^z, guarded
+    "finite": ("v", "BIG if v > BIG else (-BIG if v < -BIG else (v if v == v else 0.0))"),
+    "clip": ("v, lo, hi", "lo if v < lo else (hi if v > hi else v)"),
+    "scale": ("v, s, o", "s * (v - o)"),
+}
+#: Functions of the C math library the language may call (Python: ``math`` and ``abs``/``max``;
+#: ``max(x, y)`` is Python's builtin: y if y > x else x).
+FUNCTIONS = ("abs", "max", "sqrt", "exp", "log", "tanh", "cos", "sin", "atan", "cbrt")
 
 
-def _exp(z):
-    return BIG if z > _LN_BIG else math.exp(z)
+@dataclass(frozen=True)
+class Operation:
+    """One operation of the network operator.
+
+    Attributes
+    ----------
+    number : int
+        Its number in the matrix (the reentry paper's numbering, then the wider set).
+    name : str
+        Short name (readable formulas, C function names).
+    expr : str
+        The guarded operation in the operation language: operand ``z`` (unary) or ``a, b``
+        (binary: ``a`` the node's value so far, ``b`` the arc's).
+    text : str
+        Template of :meth:`NetworkOperator.formula` (unary: ``{}`` is the operand).
+    unit : float or None
+        Binary operations: the node's initial value (the unit element).
+    sym : str
+        The operation without its guards in SymPy's syntax (operands as in ``expr``) when it is
+        plain algebra or a SymPy function (readable formulas simplify through it); empty: the
+        operation stays a named function ``name(...)`` in readable formulas.
+    latex : str
+        LaTeX of a named function, ``#`` standing for the operand (default
+        ``\\operatorname{name}(#)``).
+    """
+
+    number: int
+    name: str
+    expr: str
+    text: str = ""
+    unit: float | None = None
+    sym: str = ""
+    latex: str = ""
 
 
-def _r5(z):
-    return 1.0 / z if abs(z) > _EPS5 else _sgn(z) / _EPS5
+_UNARY_OPS = (
+    Operation(1, "id", "z", "{}", sym="z"),
+    Operation(2, "sq", "z * z", "({})^2", sym="z**2"),
+    Operation(3, "neg", "-z", "-({})", sym="-z"),
+    Operation(4, "ssqrt", "sgn(z) * sqrt(abs(z))", "sqrt~({})"),
+    Operation(5, "inv", "1.0 / z if abs(z) > EPS5 else sgn(z) / EPS5", "inv({})"),
+    Operation(6, "exp", "gexp(z)", "exp({})", latex=r"e^{#}"),
+    Operation(7, "lnabs", "log(abs(z)) if abs(z) > EPS else LOG_EPS", "ln|{}|",
+              latex=r"\ln\left|#\right|"),
+    Operation(8, "sig2", "tanh(0.5 * z)", "sig2({})", sym="tanh(z/2)"),  # (1-e^-z)/(1+e^-z)
+    Operation(9, "heaviside", "1.0 if z >= 0.0 else 0.0", "heaviside({})",
+              latex=r"\theta\left(#\right)"),
+    Operation(10, "sgn", "sgn(z)", "sgn({})", latex=r"\operatorname{sgn}\left(#\right)"),
+    Operation(11, "cos", "cos(z)", "cos({})", sym="cos(z)"),
+    Operation(12, "sin", "sin(z)", "sin({})", sym="sin(z)"),
+    Operation(13, "atan", "atan(z)", "atan({})", sym="atan(z)"),
+    Operation(14, "cube", "z * z * z", "({})^3", sym="z**3"),
+    Operation(15, "cbrt", "cbrt(z)", "cbrt({})", latex=r"\sqrt[3]{#}"),
+    Operation(16, "clip1", "1.0 if z > 1.0 else (-1.0 if z < -1.0 else z)", "clip1({})"),
+    Operation(17, "sgnlog", "sgn(z) * log(abs(z) + 1.0)", "sgnlog({})"),
+    Operation(18, "sgnexp1", "sgn(z) * (gexp(abs(z)) - 1.0)", "sgnexp1({})"),
+    Operation(19, "sgnexpm", "sgn(z) * exp(-abs(z))", "sgnexpm({})"),
+    Operation(20, "half", "0.5 * z", "({})/2", sym="z/2"),
+    Operation(21, "twice", "2.0 * z", "2*({})", sym="2*z"),
+    Operation(22, "sat", "sgn(z) * (1.0 - exp(-abs(z)))", "sat({})"),
+    Operation(23, "cubic", "z - z * z * z", "cubic({})", sym="z - z**3"),
+    Operation(24, "logistic", "0.5 * (1.0 + tanh(0.5 * z))", "logistic({})",
+              sym="(1 + tanh(z/2))/2"),
+    Operation(25, "pos", "1.0 if z > 0.0 else 0.0", "pos({})"),
+    Operation(26, "dead", "sgn(z) if abs(z) >= 0.01 else 0.0", "dead({})"),
+    Operation(27, "circ", "sgn(z) * (1.0 - sqrt(1.0 - z * z)) if abs(z) < 1.0 else sgn(z)",
+              "circ({})"),
+    Operation(28, "gauss", "z * (1.0 - exp(-z * z))", "gauss({})", sym="z*(1 - exp(-z**2))"),
+)
+#: Binary operations (unit elements: -inf/+inf of max/min are -BIG/+BIG).
+_BINARY_OPS = (
+    Operation(1, "add", "a + b", "+", 0.0, sym="a + b"),
+    Operation(2, "mul", "a * b", "*", 1.0, sym="a*b"),
+    Operation(3, "max", "a if a >= b else b", "max", -BIG, latex=r"\max\left(#\right)"),
+    Operation(4, "min", "a if a <= b else b", "min", BIG, latex=r"\min\left(#\right)"),
+    Operation(5, "or", "a + b - a * b", "or", 0.0, sym="a + b - a*b"),
+    Operation(6, "norm", "sgn(a + b) * sqrt(a * a + b * b)", "norm", 0.0),
+    Operation(7, "sabs", "sgn(a + b) * (abs(a) + abs(b))", "sabs", 0.0),
+    Operation(8, "smax", "sgn(a + b) * max(abs(a), abs(b))", "smax", 0.0),
+)
+#: Unary operations rho_k and binary operations chi_k by number (index 0 unused).
+UNARY_OPS = (None,) + _UNARY_OPS
+BINARY_OPS = (None,) + _BINARY_OPS
 
 
-def _r7(z):
-    a = abs(z)
-    return math.log(a) if a > _EPS else math.log(_EPS)
+def _python_namespace() -> dict:
+    ns = {"__builtins__": {}, "abs": abs, "max": max}
+    ns.update((f, getattr(math, f)) for f in FUNCTIONS if f not in ("abs", "max"))
+    ns.update(CONSTANTS)
+    for name, (arg, expr) in HELPERS.items():
+        ns[name] = eval(f"lambda {arg}: {expr}", ns)      # noqa: S307 (the table above)
+    return ns
 
 
-def _r18(z):
-    return _sgn(z) * (_exp(abs(z)) - 1.0)
+_NS = _python_namespace()
+_sgn = _NS["sgn"]
+_exp = _NS["gexp"]
 
 
-def _r27(z):
-    a = abs(z)
-    return _sgn(z) * (1.0 - math.sqrt(1.0 - z * z)) if a < 1.0 else _sgn(z)
+def python_function(op: Operation, binary: bool = False):
+    """The Python function of an operation (its expression compiled once)."""
+    return eval(f"lambda {'a, b' if binary else 'z'}: {op.expr}", _NS)  # noqa: S307
 
 
-#: Unary operations rho_k, numbered as in the seed (index 0 unused).
-UNARY = [
-    None,
-    lambda z: z,                                      # 1  identity
-    lambda z: z * z,                                  # 2  z^2
-    lambda z: -z,                                     # 3  -z
-    lambda z: _sgn(z) * math.sqrt(abs(z)),            # 4  sgn(z) sqrt|z|
-    _r5,                                              # 5  1/z, guarded
-    _exp,                                             # 6  e^z
-    _r7,                                              # 7  ln|z|
-    lambda z: math.tanh(0.5 * z),                     # 8  (1-e^-z)/(1+e^-z)
-    lambda z: 1.0 if z >= 0.0 else 0.0,               # 9  Heaviside
-    _sgn,                                             # 10 sign
-    math.cos,                                         # 11 cos
-    math.sin,                                         # 12 sin
-    math.atan,                                        # 13 atan
-    lambda z: z * z * z,                              # 14 z^3
-    math.cbrt,                                        # 15 cube root
-    lambda z: 1.0 if z > 1.0 else (-1.0 if z < -1.0 else z),   # 16 clip to [-1, 1]
-    lambda z: _sgn(z) * math.log(abs(z) + 1.0),       # 17 sgn(z) ln(|z|+1)
-    _r18,                                             # 18 sgn(z)(e^|z| - 1)
-    lambda z: _sgn(z) * math.exp(-abs(z)),            # 19 sgn(z) e^-|z|
-    lambda z: 0.5 * z,                                # 20 z/2
-    lambda z: 2.0 * z,                                # 21 2z
-    lambda z: _sgn(z) * (1.0 - math.exp(-abs(z))),    # 22 sgn(z)(1 - e^-|z|)
-    lambda z: z - z * z * z,                          # 23 z - z^3
-    lambda z: 0.5 * (1.0 + math.tanh(0.5 * z)),       # 24 logistic 1/(1+e^-z)
-    lambda z: 1.0 if z > 0.0 else 0.0,                # 25 [z > 0]
-    lambda z: _sgn(z) if abs(z) >= 0.01 else 0.0,     # 26 dead zone
-    _r27,                                             # 27 sgn(z)(1 - sqrt(1 - z^2))
-    lambda z: z * (1.0 - math.exp(-z * z)),           # 28 z(1 - e^-z^2)
-]
-
-UNARY_NAMES = [None, "{}", "({})^2", "-({})", "sqrt~({})", "inv({})", "exp({})", "ln|{}|",
-               "sig2({})", "heaviside({})", "sgn({})", "cos({})", "sin({})", "atan({})",
-               "({})^3", "cbrt({})", "clip1({})", "sgnlog({})", "sgnexp1({})", "sgnexpm({})",
-               "({})/2", "2*({})", "sat({})", "cubic({})", "logistic({})", "pos({})",
-               "dead({})", "circ({})", "gauss({})"]
-
+#: Unary operations rho_k by number (index 0 unused).
+UNARY = [None] + [python_function(op) for op in _UNARY_OPS]
+UNARY_NAMES = [None] + [op.text for op in _UNARY_OPS]
 #: Binary operations chi_k (index 0 unused): 1 +, 2 *, 3 max, 4 min, then the wider set.
-BINARY = [
-    None,
-    lambda a, b: a + b,                                                   # 1
-    lambda a, b: a * b,                                                   # 2
-    lambda a, b: a if a >= b else b,                                      # 3 max
-    lambda a, b: a if a <= b else b,                                      # 4 min
-    lambda a, b: a + b - a * b,                                           # 5
-    lambda a, b: _sgn(a + b) * math.sqrt(a * a + b * b),                  # 6
-    lambda a, b: _sgn(a + b) * (abs(a) + abs(b)),                         # 7
-    lambda a, b: _sgn(a + b) * max(abs(a), abs(b)),                       # 8
-]
-BINARY_NAMES = [None, "+", "*", "max", "min", "or", "norm", "sabs", "smax"]
+BINARY = [None] + [python_function(op, binary=True) for op in _BINARY_OPS]
+BINARY_NAMES = [None] + [op.text for op in _BINARY_OPS]
 #: Unit elements of the binary operations (-inf/+inf of max/min are -BIG/+BIG).
-UNIT = [None, 0.0, 1.0, -BIG, BIG, 0.0, 0.0, 0.0, 0.0]
+UNIT = [None] + [op.unit for op in _BINARY_OPS]
 
 
 def compile_law(psi, nx: int, nq: int, outputs):
@@ -203,10 +263,8 @@ def compile_law(psi, nx: int, nq: int, outputs):
     return L, init, arcs, outs
 
 
-def _finite(v):
-    if v != v:
-        return 0.0
-    return BIG if v > BIG else (-BIG if v < -BIG else v)
+#: A value as the law holds it: NaN -> 0, clamped to [-BIG, BIG].
+finite = _NS["finite"]
 
 
 def evaluate(program, sources):
@@ -214,12 +272,13 @@ def evaluate(program, sources):
     L, init, arcs, outs = program
     z = list(init)
     for k, v in enumerate(sources):
-        z[k] = _finite(v)
+        z[k] = finite(v)
     for i, j, rho, chi in arcs:
         try:
             v = chi(z[j], rho(z[i]))
-        except (OverflowError, ValueError, ZeroDivisionError):
-            v = BIG
+        except (OverflowError, ValueError, ZeroDivisionError):  # never met: the operands are
+            v = BIG                                               # finite, the guards hold
+        # finite(v), written inline (the hot loop of every closed-loop step)
         z[j] = BIG if v > BIG else (-BIG if v < -BIG else (v if v == v else 0.0))
     return [z[o] for o in outs]
 
@@ -238,6 +297,19 @@ BASIC_LAW_PSI = [
 #: The paper's parameters of its chosen law (Diveev & Shmalko).
 PAPER_Q = (2.259375, 1.953125)
 
+
+#: Descriptions (unit in brackets) of the controller's variables; the native law FMUs of
+#: synthesis.native declare the same names with the same descriptions, so one swaps in for the
+#: other.
+DESCRIPTIONS = {
+    "x": "controller input [1]",
+    "u": "control output, clipped to [u_min, u_max] [1]",
+    "q": "law parameter q [1]",
+    "u_min": "lower output bound [1]",
+    "u_max": "upper output bound [1]",
+    "x_scale": "input scale: node k holds x_scale[k] (x[k] - x_offset[k]) [1]",
+    "x_offset": "input offset (in the input's unit) [1]",
+}
 
 _PSI_IJ = [(i, j) for i in range(L_MAX) for j in range(i, L_MAX)]
 _PSI_NAMES = [f"psi[{i + 1},{j + 1}]" for i, j in _PSI_IJ]
@@ -279,18 +351,18 @@ class NetworkOperatorController(SlaveBase):
         self.int_parameter("nx", 2, "number of input source nodes (nodes 1..nx) [1]")
         self.int_parameter("nq", 2, "number of parameter source nodes (nodes nx+1..nx+nq) [1]")
         self.int_parameter("nu", 1, "number of outputs in use [1]")
-        self.real_array("x", self.x, Fmi2Causality.input, "controller input [1]",
+        self.real_array("x", self.x, Fmi2Causality.input, DESCRIPTIONS["x"],
                         setter_hook=self._touch)
         for k in range(NU_MAX):
-            self.output(f"u[{k + 1}]", "control output, clipped to [u_min, u_max] [1]",
+            self.output(f"u[{k + 1}]", DESCRIPTIONS["u"],
                         getter=lambda k=k: self._outputs()[k])
-        self.real_array("q", self.q, Fmi2Causality.parameter, "law parameter q [1]")
-        self.real_array("u_min", self.u_lo, Fmi2Causality.parameter, "lower output bound [1]")
-        self.real_array("u_max", self.u_hi, Fmi2Causality.parameter, "upper output bound [1]")
+        self.real_array("q", self.q, Fmi2Causality.parameter, DESCRIPTIONS["q"])
+        self.real_array("u_min", self.u_lo, Fmi2Causality.parameter, DESCRIPTIONS["u_min"])
+        self.real_array("u_max", self.u_hi, Fmi2Causality.parameter, DESCRIPTIONS["u_max"])
         self.real_array("x_scale", self.x_scale, Fmi2Causality.parameter,
-                        "input scale: node k holds x_scale[k] (x[k] - x_offset[k]) [1]")
+                        DESCRIPTIONS["x_scale"])
         self.real_array("x_offset", self.x_offset, Fmi2Causality.parameter,
-                        "input offset (in the input's unit) [1]")
+                        DESCRIPTIONS["x_offset"])
         for k in range(NU_MAX):
             self.int_parameter(f"out[{k + 1}]", 0, "node whose value is output k (0 = unused) [1]",
                                lambda k=k: self.out[k],
