@@ -168,8 +168,13 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     bar = None
     if progress:
         from tqdm import tqdm
-        bar = tqdm(total=generations, initial=min(ga.generation, generations), unit="gen",
-                   desc=f"synthesize {problem.name}", dynamic_ncols=True)
+        if budget.flights:       # the run ends when the flights are spent: count flights
+            done = json.loads(ckpt.read_text()).get("simulated", 0) if resume else 0
+            bar = tqdm(total=budget.flights, initial=min(done, budget.flights), unit="flight",
+                       desc=f"synthesize {problem.name}", dynamic_ncols=True)
+        else:
+            bar = tqdm(total=generations, initial=min(ga.generation, generations), unit="gen",
+                       desc=f"synthesize {problem.name}", dynamic_ncols=True)
     t0, ev0 = time.perf_counter(), evaluator.simulated
     start_gen = ga.generation
     names = problem.objective_names
@@ -186,10 +191,12 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
                 curve.append((flights, float(g.archive[k][2][problem.target.objective])))
         _write_json(ckpt, dict(g.state(), curve=curve, simulated=flights))
         if bar is not None:
-            bar.n = min(g.generation, generations)
+            bar.n = (min(flights, budget.flights) if budget.flights
+                     else min(g.generation, generations))
+            post_gen = {"gen": g.generation}
             front = g.F[g.lh == 0]
             rate = (evaluator.simulated - ev0) / max(time.perf_counter() - t0, 1e-9)
-            post = {"evals/s": f"{rate:.0f}", "front": len(front)}
+            post = dict(post_gen, **{"evals/s": f"{rate:.0f}", "front": len(front)})
             for k, n in enumerate(names):
                 post[f"min {n}"] = f"{front[:, k].min():.4g}"
             post.update(problem.report.headline(front))

@@ -192,7 +192,7 @@ class ReentryReport(Report):
             ok = [r for r in rows if r["J2"] < limit]
             best = min(ok, key=lambda r: r["J1"]) if ok else None
             result[key] = best and {"k": best["k"], "J1": best["J1"], "J2": best["J2"],
-                                    "formula": best["formula"]}
+                                    "readable": best.get("readable", best["formula"])}
         if reference:
             zero, tol = bound_reference(out)
             result["bound_J1"], result["bound_J1_zero_miss"] = tol, zero
