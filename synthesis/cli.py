@@ -235,6 +235,10 @@ def main(argv=None) -> int:
     from descent_fmus.synthesis.cosim import FMUError
     from descent_fmus.synthesis.interrupt import RunInterrupted
 
+    import faulthandler
+    if not faulthandler.is_enabled():
+        # a crash inside an FMU's native code prints the Python stack it happened in
+        faulthandler.enable()
     ap = build_parser()
     args = ap.parse_args(argv)
     name = args.command + (f" {args.action}" if getattr(args, "action", None) else "")

@@ -112,13 +112,26 @@ _LOOPS: dict = {}
 def _worker_loop(problem: SynthesisProblem, plant: str, controller: str):
     key = (problem.name, problem.source, plant, controller)
     if key not in _LOOPS:
-        if not _LOOPS:         # the process's extracted FMUs go when it exits
+        if not _LOOPS:         # the process's FMUs are freed, their folders removed, at exit
             import atexit
-            atexit.register(remove_extracted)
+            atexit.register(_free_loops)
         # a problem's runner may choose the closed-loop container FMU (synthesis.runners)
         load = problem.runner.load if problem.runner is not None else ClosedLoop
         _LOOPS[key] = load(problem.wiring, plant, controller, record=problem.record)
     return _LOOPS[key]
+
+
+def _free_loops() -> None:
+    """At interpreter exit: free the FMU instances while Python is still whole (a pythonfmu
+    instance holds Python objects; left to the interpreter's teardown they are released in no
+    defined order), then remove their folders."""
+    for loop in list(_LOOPS.values()):
+        try:
+            loop.close()
+        except Exception:       # an FMU that cannot be freed: its folder still goes
+            pass
+    remove_extracted()
+    _LOOPS.clear()
 
 
 def remove_extracted() -> None:

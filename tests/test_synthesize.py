@@ -103,8 +103,9 @@ def test_killed_cli_run_resumes(fmu_dir, tmp_path):
             "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
             "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-reference",
             "--refine-evals", "20", "--fmus", str(fmu_dir)]
-    subprocess.run(args + ["--out", str(tmp_path / "ref")], check=True, cwd=ROOT,
-                   capture_output=True)
+    ref = subprocess.run(args + ["--out", str(tmp_path / "ref")], cwd=ROOT,
+                         capture_output=True, text=True)
+    assert ref.returncode == 0, ref.stderr[-4000:]
     out = tmp_path / "killed"
     proc = subprocess.Popen(args + ["--out", str(out)], cwd=ROOT, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
