@@ -14,9 +14,10 @@
   removes the ``run.json`` it wrote, so that the same command starts it again.
 * No space left on the device (ENOSPC) becomes :class:`DiskSpaceError`, naming the folder, the
   size needed and the checkpoint that stays valid; half-written ``*.tmp`` files are removed.
-  Before the export of the Pareto laws (with closed loops about 4 MB a law, hundreds of MB in a
-  large run) :func:`check_export_space` compares an estimate with the free space and stops
-  before writing anything.
+  Before the export of the Pareto laws (tens of kB a law with a native law FMU, about 1 MB
+  with the pythonfmu controller, about 2 MB more with the closed-loop FMU and SSP of
+  ``--export all``) :func:`check_export_space` compares an estimate with the free space and
+  stops before writing anything.
 """
 from __future__ import annotations
 
@@ -52,20 +53,29 @@ def _mb(n: float) -> str:
     return f"{n / _MB:.1f} MB"
 
 
-def export_bytes_per_law(problem, fmu_dir, closed_loops: bool = True) -> tuple[int, int]:
+#: Upper bound of a native law FMU [bytes] (the reentry law FMU: about 30 kB).
+NATIVE_LAW_FMU_BYTES = 128 * 1024
+#: Upper bound of law.json + law.h + law.c of one law [bytes] (reentry: about 15 kB).
+LAW_FILES_BYTES = 64 * 1024
+
+
+def export_bytes_per_law(problem, fmu_dir, closed_loops: bool = True,
+                         law_fmu: str = "python") -> tuple[int, int]:
     """(bytes in the run folder, temporary bytes) that exporting one law takes, estimated.
 
-    One exported law is ``law.json``, ``law.h``/``law.c`` and the law FMU (native, tens of kB,
-    or the pythonfmu controller with the law as defaults: the controller FMU's size, the upper
-    bound used here) and, with ``closed_loops``, the closed-loop container FMU and its SSP file.
-    The built closed loop of the same wiring in the FMU folder, if there, gives their sizes;
-    else the two component FMUs do (container ~ plant + controller + 1 MB of container
-    binaries, SSP ~ plant + controller).  Building a container extracts and re-packs both
-    components in the temporary folder.
+    One exported law is ``law.json``, ``law.h``/``law.c`` (:data:`LAW_FILES_BYTES`) and the law
+    FMU: ``law_fmu="native"`` a compiled FMU (:data:`NATIVE_LAW_FMU_BYTES`), ``"python"`` the
+    pythonfmu controller with the law as defaults (the controller FMU's size).  With
+    ``closed_loops`` add the closed-loop container FMU and its SSP file: the built closed loop
+    of the same wiring in the FMU folder gives their sizes (with the pythonfmu controller inside:
+    an upper bound for a native law); else the two component FMUs do (container ~ plant +
+    controller + 1 MB of container binaries, SSP ~ plant + controller).  Building a container
+    extracts and re-packs both components in the temporary folder.
     """
     plant, ctrl = problem.fmu_paths(fmu_dir)
     ps, cs = Path(plant).stat().st_size, Path(ctrl).stat().st_size
-    per_law, temp = cs + 64 * 1024, 2 * cs + _MB
+    law = NATIVE_LAW_FMU_BYTES if law_fmu == "native" else cs
+    per_law, temp = law + LAW_FILES_BYTES, 2 * cs + _MB
     if closed_loops:
         loop = Path(fmu_dir) / f"{problem.wiring.name}.fmu"
         ssp = loop.with_suffix(".ssp")
@@ -78,11 +88,11 @@ def export_bytes_per_law(problem, fmu_dir, closed_loops: bool = True) -> tuple[i
 
 
 def check_export_space(out: Path, problem, fmu_dir, n_laws: int,
-                       closed_loops: bool = True) -> None:
+                       closed_loops: bool = True, law_fmu: str = "python") -> None:
     """Raise :class:`DiskSpaceError` before exporting ``n_laws`` laws into ``out/laws`` if the
     estimate (:func:`export_bytes_per_law`) exceeds the free space of ``out`` or of the
     temporary folder."""
-    per_law, temp = export_bytes_per_law(problem, fmu_dir, closed_loops)
+    per_law, temp = export_bytes_per_law(problem, fmu_dir, closed_loops, law_fmu)
     need = per_law * n_laws
     _NEED.update(what=f"the export of {n_laws} Pareto laws", bytes=need)
     for folder, size in ((Path(out), need), (Path(tempfile.gettempdir()), temp)):

@@ -386,8 +386,8 @@ def _write_results(problem, ga, evaluator, out: Path, fmu_dir, export: bool,
     plot_front(problem, rows, summary, out / "pareto.png")
     what = LawExport.of(export)
     if what is not None:
-        check_export_space(out, problem, fmu_dir, len(rows), what.closed_loops)
         kind, note = choose_law_fmu(what.law_fmu)
+        check_export_space(out, problem, fmu_dir, len(rows), what.closed_loops, law_fmu=kind)
         summary.update(law_fmus=kind, **({"law_fmu_note": note} if note else {}))
         stem = problem.wiring.name.removesuffix("ClosedLoop")
         for r, law in zip(rows, laws):
