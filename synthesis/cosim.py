@@ -241,7 +241,10 @@ class _Component:
         try:
             return fn(*args)
         except Exception as exc:  # fmpy raises FMICallException; add what the FMU said
-            said = "; ".join(m.strip() for m in self.log if m.strip())
+            # pythonfmu adds its own line after the FMU's message ("Fatal py exception
+            # encountered: [call] ..."): it repeats the message or says nothing more
+            said = "; ".join(m.strip() for m in self.log
+                             if m.strip() and not m.lstrip().startswith("Fatal py exception"))
             raise FMUError(f"{self.md.modelName}: {what} failed"
                            + (f": {said}" if said else f" ({exc})")) from None
 
