@@ -21,7 +21,8 @@ Parameter checks run in ``exit_initialization_mode``; a failed check raises
 :class:`ParameterError` with a message naming the parameter (never a NaN trajectory).  pythonfmu
 0.7 logs it with status fmi2Error and returns fmi2Fatal (its C++ layer turns every Python
 exception into fmi2Fatal and forwards log messages only when the host instantiated the FMU with
-``loggingOn``: ``fmpy simulate --debug-logging`` shows the message).  A container FMU reports a
+``loggingOn``: ``fmpy simulate --debug-logging`` shows the message); the build's status wrapper
+(``synthesis.export.add_status_wrapper``) makes that fmi2Error.  A container FMU reports a
 failing component as fmi2Error.
 """
 from __future__ import annotations

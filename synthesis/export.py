@@ -105,7 +105,66 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
         script.parent.mkdir()
         script.write_text(entry_script(module, cls))
         fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
-    return add_units(fmu)
+    return add_status_wrapper(add_units(fmu))
+
+
+_STATUS_LIBRARY: list = []       # the compiled status wrapper of this process (bytes or None)
+
+
+def _status_library() -> bytes | None:
+    """The status wrapper (``synthesis/native/c/pythonfmu_status.c``) compiled for this
+    machine, or None where it cannot be (no C compiler, not linux64)."""
+    if not _STATUS_LIBRARY:
+        from descent_fmus.synthesis.native.build import (NativeBuildError, compile_sources,
+                                                         find_compiler, platform_folder)
+        lib = None
+        try:
+            if platform_folder() == ("linux64", ".so") and find_compiler() is not None:
+                with tempfile.TemporaryDirectory(prefix="descent_status_") as tmp:
+                    out = compile_sources(Path(__file__).parent / "native" / "c",
+                                          ["pythonfmu_status.c"], Path(tmp) / "wrapper.so",
+                                          libraries=("dl",))
+                    lib = out.read_bytes()
+        except NativeBuildError:
+            lib = None
+        _STATUS_LIBRARY.append(lib)
+    return _STATUS_LIBRARY[0]
+
+
+def add_status_wrapper(fmu: Path) -> Path:
+    """Give a pythonfmu FMU the FMI status of a user error (in place, atomically).
+
+    pythonfmu reports a parameter the FMU rejects in ``fmi2ExitInitializationMode`` as
+    fmi2Fatal; FMI 2.0 calls it fmi2Error.  The linux64 binary becomes the status wrapper
+    (``synthesis/native/c/pythonfmu_status.c``), which forwards every call to the pythonfmu
+    binary, renamed ``<identifier>.pythonfmu.so`` beside it, and reports fmi2Fatal of the
+    set-up calls as fmi2Error.  Without a C compiler the FMU is left as pythonfmu built it.
+    """
+    lib = _status_library()
+    if lib is None:
+        return fmu
+    fmu = Path(fmu)
+    tmp = fmu.with_suffix(".fmu.tmp")
+    with zipfile.ZipFile(fmu) as zin:
+        ident = ET.fromstring(zin.read("modelDescription.xml")).find(
+            "CoSimulation").get("modelIdentifier")
+        binary = f"binaries/linux64/{ident}.so"
+        if binary not in zin.namelist():
+            return fmu
+        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+            for item in zin.infolist():
+                data = zin.read(item.filename)
+                if item.filename == binary:
+                    item.filename = f"binaries/linux64/{ident}.pythonfmu.so"
+                    zout.writestr(item, data)
+                    wrapper = zipfile.ZipInfo(binary, date_time=item.date_time)
+                    wrapper.external_attr = item.external_attr
+                    wrapper.compress_type = zipfile.ZIP_DEFLATED
+                    zout.writestr(wrapper, lib)
+                else:
+                    zout.writestr(item, data)
+    tmp.replace(fmu)
+    return fmu
 
 
 def _rewrite_model_description(fmu: Path, edit) -> Path:

@@ -118,7 +118,7 @@ def _cached_object(cc: str, sources_dir: Path, name: str) -> Path:
 
 
 def compile_sources(sources_dir: Path, files, library: Path, compiler: str | None = None,
-                    cached=()) -> Path:
+                    cached=(), libraries=("m",)) -> Path:
     """Compile ``files`` of ``sources_dir`` into the shared library ``library``.
 
     ``cached``: those of ``files`` whose object may be reused from an earlier build in this
@@ -141,7 +141,7 @@ def compile_sources(sources_dir: Path, files, library: Path, compiler: str | Non
     inputs = [str(_cached_object(cc, sources_dir, f)) if f in cached else str(sources_dir / f)
               for f in files]
     _run([cc, *COMPILE_FLAGS, *extra, "-I", str(sources_dir), *inputs, "-o", str(library),
-          "-lm"], ", ".join(files))
+          *(f"-l{name}" for name in libraries)], ", ".join(files))
     if not library.is_file():
         raise NativeBuildError(f"{Path(cc).name} wrote no {library.name}")
     return library

@@ -1,0 +1,179 @@
+/* FMI 2.0 status wrapper around a pythonfmu FMU binary.
+
+   pythonfmu turns every Python exception of an FMU into fmi2Fatal, also when the FMU rejects a
+   parameter in fmi2ExitInitializationMode -- a user error that FMI 2.0 reports as fmi2Error,
+   after which the FMU may be reset or freed.  This library is the FMU's binary; it loads the
+   pythonfmu binary renamed beside it (<identifier>.pythonfmu.so, RTLD_LOCAL) and forwards every
+   FMI 2.0 co-simulation function to it unchanged, except that fmi2Fatal from the set-up calls
+   (fmi2SetupExperiment, fmi2EnterInitializationMode, fmi2ExitInitializationMode) becomes
+   fmi2Error.  The FMUs of this project keep their instances safe to reset and free after such
+   an error (their Python side balances pythonfmu's reference counts).  The message the FMU
+   logged is unchanged. */
+#define _GNU_SOURCE
+#include <dlfcn.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "fmi2Functions.h"
+
+static void *real_library = NULL;
+
+/* The pythonfmu binary beside this library: same path, ".so" -> ".pythonfmu.so". */
+static void *library(void)
+{
+    Dl_info self;
+    char path[4096];
+    size_t n;
+    if (real_library != NULL)
+        return real_library;
+    if (dladdr((void *)&library, &self) == 0 || self.dli_fname == NULL)
+        return NULL;
+    n = strlen(self.dli_fname);
+    if (n < 3 || n + 10 >= sizeof path || strcmp(self.dli_fname + n - 3, ".so") != 0)
+        return NULL;
+    memcpy(path, self.dli_fname, n - 3);
+    strcpy(path + n - 3, ".pythonfmu.so");
+    real_library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
+    if (real_library == NULL)
+        fprintf(stderr, "%s: cannot load %s: %s\n", self.dli_fname, path, dlerror());
+    return real_library;
+}
+
+static void *resolve(const char *name)
+{
+    void *lib = library();
+    return lib != NULL ? dlsym(lib, name) : NULL;
+}
+
+/* The function `name` of the pythonfmu binary, looked up once. */
+#define REAL(name) \
+    static name##TYPE *p_##name = NULL; \
+    if (p_##name == NULL) \
+        *(void **)(&p_##name) = resolve(#name)
+
+#define FORWARD_STATUS(name, params, args) \
+    fmi2Status name params \
+    { \
+        REAL(name); \
+        return p_##name != NULL ? p_##name args : fmi2Fatal; \
+    }
+
+/* set-up calls: a rejected value is fmi2Error, not fmi2Fatal */
+#define SETUP_STATUS(name, params, args) \
+    fmi2Status name params \
+    { \
+        fmi2Status s; \
+        REAL(name); \
+        if (p_##name == NULL) \
+            return fmi2Fatal; \
+        s = p_##name args; \
+        return s == fmi2Fatal ? fmi2Error : s; \
+    }
+
+const char *fmi2GetTypesPlatform(void)
+{
+    return fmi2TypesPlatform;
+}
+
+const char *fmi2GetVersion(void)
+{
+    return fmi2Version;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String guid,
+                              fmi2String resourceLocation,
+                              const fmi2CallbackFunctions *functions, fmi2Boolean visible,
+                              fmi2Boolean loggingOn)
+{
+    REAL(fmi2Instantiate);
+    if (p_fmi2Instantiate == NULL)
+        return NULL;
+    return p_fmi2Instantiate(instanceName, fmuType, guid, resourceLocation, functions, visible,
+                             loggingOn);
+}
+
+void fmi2FreeInstance(fmi2Component c)
+{
+    REAL(fmi2FreeInstance);
+    if (p_fmi2FreeInstance != NULL)
+        p_fmi2FreeInstance(c);
+}
+
+FORWARD_STATUS(fmi2SetDebugLogging,
+               (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String categories[]),
+               (c, on, n, categories))
+SETUP_STATUS(fmi2SetupExperiment,
+             (fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+              fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime),
+             (c, toleranceDefined, tolerance, startTime, stopTimeDefined, stopTime))
+SETUP_STATUS(fmi2EnterInitializationMode, (fmi2Component c), (c))
+SETUP_STATUS(fmi2ExitInitializationMode, (fmi2Component c), (c))
+FORWARD_STATUS(fmi2Terminate, (fmi2Component c), (c))
+FORWARD_STATUS(fmi2Reset, (fmi2Component c), (c))
+
+FORWARD_STATUS(fmi2GetReal,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]),
+               (c, vr, n, v))
+FORWARD_STATUS(fmi2GetInteger,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]),
+               (c, vr, n, v))
+FORWARD_STATUS(fmi2GetBoolean,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]),
+               (c, vr, n, v))
+FORWARD_STATUS(fmi2GetString,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]),
+               (c, vr, n, v))
+FORWARD_STATUS(fmi2SetReal,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]),
+               (c, vr, n, v))
+FORWARD_STATUS(fmi2SetInteger,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                const fmi2Integer v[]),
+               (c, vr, n, v))
+FORWARD_STATUS(fmi2SetBoolean,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                const fmi2Boolean v[]),
+               (c, vr, n, v))
+FORWARD_STATUS(fmi2SetString,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                const fmi2String v[]),
+               (c, vr, n, v))
+
+FORWARD_STATUS(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+FORWARD_STATUS(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))
+FORWARD_STATUS(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+FORWARD_STATUS(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n),
+               (c, s, n))
+FORWARD_STATUS(fmi2SerializeFMUstate,
+               (fmi2Component c, fmi2FMUstate s, fmi2Byte bytes[], size_t n), (c, s, bytes, n))
+FORWARD_STATUS(fmi2DeSerializeFMUstate,
+               (fmi2Component c, const fmi2Byte bytes[], size_t n, fmi2FMUstate *s),
+               (c, bytes, n, s))
+FORWARD_STATUS(fmi2GetDirectionalDerivative,
+               (fmi2Component c, const fmi2ValueReference vUnknown[], size_t nUnknown,
+                const fmi2ValueReference vKnown[], size_t nKnown, const fmi2Real dvKnown[],
+                fmi2Real dvUnknown[]),
+               (c, vUnknown, nUnknown, vKnown, nKnown, dvKnown, dvUnknown))
+
+FORWARD_STATUS(fmi2SetRealInputDerivatives,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                const fmi2Integer order[], const fmi2Real value[]),
+               (c, vr, n, order, value))
+FORWARD_STATUS(fmi2GetRealOutputDerivatives,
+               (fmi2Component c, const fmi2ValueReference vr[], size_t n,
+                const fmi2Integer order[], fmi2Real value[]),
+               (c, vr, n, order, value))
+FORWARD_STATUS(fmi2DoStep,
+               (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior),
+               (c, t, h, noSetPrior))
+FORWARD_STATUS(fmi2CancelStep, (fmi2Component c), (c))
+FORWARD_STATUS(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Status *v),
+               (c, s, v))
+FORWARD_STATUS(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Real *v),
+               (c, s, v))
+FORWARD_STATUS(fmi2GetIntegerStatus,
+               (fmi2Component c, const fmi2StatusKind s, fmi2Integer *v), (c, s, v))
+FORWARD_STATUS(fmi2GetBooleanStatus,
+               (fmi2Component c, const fmi2StatusKind s, fmi2Boolean *v), (c, s, v))
+FORWARD_STATUS(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind s, fmi2String *v),
+               (c, s, v))
