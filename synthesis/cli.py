@@ -79,6 +79,9 @@ def _add_synthesize(sub) -> None:
     g.add_argument("--epoch", type=positive_int, default=None,
                    help="generations between changes of the basic solution")
     g.add_argument("--seed", type=int, default=None, help="random seed; same seed, same result")
+    g.add_argument("--refine-basis", type=nonnegative_int, default=None, metavar="N",
+                   help="CMA-ES evaluations on the basic solution's parameters before the "
+                        "structure search (0 = none)")
     g.add_argument("--refine-evals", type=nonnegative_int, default=None,
                    help="CMA-ES evaluations per parameter refinement inside the GA (0 = the "
                         "GA alone)")
@@ -158,7 +161,8 @@ def run_synthesize(args) -> int:
                                       generations=args.generations,
                                       crossovers=args.crossovers, lchr=args.lchr,
                                       epoch=args.epoch, seed=args.seed,
-                                      flights=args.flights, refine_evals=args.refine_evals)
+                                      flights=args.flights, refine_evals=args.refine_evals,
+                                      refine_basis=args.refine_basis)
     except ValueError as exc:
         raise CliError(str(exc)) from None
     from descent_fmus.synthesis.synthesize import methods

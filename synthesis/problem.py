@@ -50,6 +50,8 @@ class Budget:
     elite_trim: int = 4       #: Pareto members whose variation lists are trimmed per epoch
     refine_evals: int = 0     #: CMA-ES evaluations per refined law and epoch (0 = GA only)
     refine_laws: int = 1      #: laws whose parameters CMA-ES refines per epoch
+    refine_basis: int = 0     #: CMA-ES evaluations on the basic solution before the structure
+                              #: search (0 = none)
     flights: int = 0          #: flight budget: cma-* runs fly this many; the GA stops there
                               #: too (0 = by generations only)
 
@@ -63,7 +65,8 @@ class Budget:
     def ga_config(self) -> GAConfig:
         return GAConfig(population=self.population, crossovers=self.crossovers,
                         lchr=self.lchr, epoch=self.epoch, elite_trim=self.elite_trim,
-                        refine_evals=self.refine_evals, refine_laws=self.refine_laws)
+                        refine_evals=self.refine_evals, refine_laws=self.refine_laws,
+                        refine_basis=self.refine_basis)
 
     def with_(self, **changes) -> "Budget":
         """A copy with the given fields changed (``None`` values are ignored)."""

@@ -63,7 +63,8 @@ def make_ga(problem: SynthesisProblem, budget: Budget, wide_ops: bool = False) -
     return VariationalGA(GrayCodec(len(basic.q), ib, fb, lo, hi), basic.q,
                          np.random.default_rng(budget.seed), budget.ga_config(), structure,
                          basic.psi, decode,
-                         target=problem.target if budget.refine_evals else None)
+                         target=problem.target if (budget.refine_evals or budget.refine_basis)
+                         else None)
 
 
 def replace_law(basic: NetworkOperator, psi, q) -> NetworkOperator:

@@ -125,14 +125,14 @@ def _bowl_objectives(cands):
     return np.array(F)
 
 
-def _refining_ga(seed, refine_evals=300):
+def _refining_ga(seed, refine_evals=300, refine_basis=0):
     from descent_fmus.synthesis.methods.policy_search import Target
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
     psi[0, 3], psi[1, 3], psi[3, 4], psi[2, 4], psi[4, 5] = 1, 1, 1, 1, 1
     cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, refine_evals=refine_evals,
-                   refine_laws=2)
+                   refine_laws=2, refine_basis=refine_basis)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, target=Target(0, 1, 100.0))
 
@@ -158,6 +158,33 @@ def test_refinement_is_seeded_resumes_and_improves_the_parameters():
     assert best(a) == pytest.approx(0.08, abs=1e-4)
     plain = _refining_ga(3, refine_evals=0).run(_bowl_objectives, 90)
     assert plain.evaluations >= a.evaluations and best(plain) > 0.0805
+
+
+def test_basis_refinement_comes_first_and_resumes():
+    # refine_basis: after the initial population, CMA-ES tunes the basis (member 0, no
+    # variations) alone for its own budget before any child is made; the basis q then reaches
+    # the constrained minimum of the bowl, 0.08 (closed form, as above), within 1e-3
+    a = _refining_ga(3, refine_evals=0, refine_basis=400)
+    phases, evals = [], []
+    while "children" not in phases and len(phases) < 500:
+        cands = a.ask()
+        phases.append(a._pending[0])
+        evals.append(a.evaluations)
+        a.tell(_bowl_objectives(cands))
+    assert phases[0] == "init" and phases[-1] == "children"
+    assert set(phases[1:-1]) == {"refine"}
+    # the basis refinement used its budget (whole CMA-ES generations: at most one more)
+    assert 400 <= evals[-1] - 16 < 400 + 16
+    basis_f = a.pop[0].f
+    assert basis_f[1] < 100.0 and basis_f[0] == pytest.approx(0.08, abs=1e-3)
+    # a checkpoint taken in the middle of the basis refinement continues exactly
+    b = _refining_ga(3, refine_evals=0, refine_basis=400)
+    states = []
+    b.run(_bowl_objectives, 3, callback=lambda g: states.append(json.dumps(g.state())))
+    mid = next(json.loads(s) for s in states if json.loads(s)["refine"].get("members"))
+    c = _refining_ga(999, refine_evals=0, refine_basis=400).load_state(mid)
+    c.run(_bowl_objectives, 3 - mid["generation"])
+    assert np.array_equal(b.F, c.F) and b.evaluations == c.evaluations
 
 
 def test_refinement_needs_a_target():

@@ -161,6 +161,8 @@ class GAConfig:
     refine_evals: int = 0       #: CMA-ES evaluations per refined law at each epoch (0 = off)
     refine_laws: int = 1        #: laws refined per epoch: the best by the target (distinct
                                 #: structures)
+    refine_basis: int = 0       #: CMA-ES evaluations on the basis's parameters after the
+                                #: initial population, before the structure search (0 = off)
     refine_sigma: float = 0.3   #: initial CMA-ES step, relative to each parameter's size
     refine_popsize: int = 0     #: CMA-ES candidates per generation (0 = pycma's default)
 
@@ -172,9 +174,9 @@ class GAConfig:
         if self.lchr < 0 or self.epoch < 1 or not 0 <= self.p_mutation <= 1:
             raise ValueError("need lchr >= 0, epoch >= 1 and 0 <= p_mutation <= 1")
         if self.refine_evals < 0 or self.refine_laws < 1 or not self.refine_sigma > 0 \
-                or self.refine_popsize < 0:
-            raise ValueError("need refine_evals >= 0, refine_laws >= 1, refine_sigma > 0 and "
-                             "refine_popsize >= 0")
+                or self.refine_popsize < 0 or self.refine_basis < 0:
+            raise ValueError("need refine_evals >= 0, refine_basis >= 0, refine_laws >= 1, "
+                             "refine_sigma > 0 and refine_popsize >= 0")
 
 
 @dataclass
@@ -208,7 +210,7 @@ class VariationalGA:
                  structure: StructureCodec | None = None, psi0=None, decode=None,
                  archive_max: int = 200, target=None):
         self.params, self.cfg, self.rng = params, config, rng
-        if config.refine_evals and target is None:
+        if (config.refine_evals or config.refine_basis) and target is None:
             raise ValueError("parameter refinement (refine_evals > 0) needs a target")
         self.target = target
         self._refine = None           # the running CMA-ES refinements (see _start_refine)
@@ -287,6 +289,11 @@ class VariationalGA:
             self.pop = members
             self.lh = dominance_counts(self.F)
             self._refine_due = self.cfg.refine_evals > 0
+            if phase == "init" and self.cfg.refine_basis > 0:
+                # the basic solution's parameters first, with a budget of their own: the
+                # structure search then builds on a tuned basis
+                self._refine_due = False
+                self._start_refine(basis=True)
             if phase == "epoch":
                 self._pending_trim = self._trim_candidates()
                 if self._pending_trim:
@@ -467,22 +474,27 @@ class VariationalGA:
         self._pending_trim = []
 
     # -- parameter refinement by CMA-ES ----------------------------------------------------
-    def _start_refine(self) -> None:
+    def _start_refine(self, basis: bool = False) -> None:
         """CMA-ES on the parameters of the best members by the target with distinct structures
         (``refine_laws`` of them; the basis among them if it is one of the best),
-        ``refine_evals`` each.  A structure refined before continues its CMA-ES (mean, step
-        size and covariance kept: one long search per structure rather than restarts);
-        otherwise a new one starts at the member's q."""
-        F = self.F
-        order = np.argsort(self.target.scalar(F), kind="stable")
-        picks, seen = [], set()
-        for k in order:
-            if len(picks) >= self.cfg.refine_laws:
-                break
-            key = self._structure_key(self.pop[int(k)])
-            if key not in seen:
-                seen.add(key)
-                picks.append(int(k))
+        ``refine_evals`` each; with ``basis``, on the basis (member 0 of the initial
+        population) alone, ``refine_basis`` evaluations.  A structure refined before continues
+        its CMA-ES (mean, step size and covariance kept: one long search per structure rather
+        than restarts); otherwise a new one starts at the member's q."""
+        if basis:
+            picks, budget = [0], self.cfg.refine_basis
+        else:
+            F = self.F
+            order = np.argsort(self.target.scalar(F), kind="stable")
+            picks, seen = [], set()
+            for k in order:
+                if len(picks) >= self.cfg.refine_laws:
+                    break
+                key = self._structure_key(self.pop[int(k)])
+                if key not in seen:
+                    seen.add(key)
+                    picks.append(int(k))
+            budget = self.cfg.refine_evals
         searches = []
         for k in picks:
             seed = int(self.rng.integers(0, 2 ** 31 - 1))
@@ -493,6 +505,7 @@ class VariationalGA:
             else:
                 searches.append(self._new_cma(self.params.decode(m.bits), seed))
         self._refine = {"members": picks, "cma": searches, "evals": [0] * len(picks),
+                        "budget": budget,
                         "best": [(self.pop[k].bits.copy(), self.pop[k].f.copy())
                                  for k in picks]}
 
@@ -513,7 +526,7 @@ class VariationalGA:
         r = self._refine
         out = []
         for k, c, n in zip(r["members"], r["cma"], r["evals"]):
-            if n >= self.cfg.refine_evals:
+            if n >= r["budget"]:
                 continue
             var = list(self.pop[k].variations)
             out += [_Member(list(var), self.params.encode(x)) for x in c.ask()]
@@ -533,7 +546,7 @@ class VariationalGA:
         r = self._refine
         i = 0
         for j, (c, n) in enumerate(zip(r["cma"], r["evals"])):
-            if n >= self.cfg.refine_evals:
+            if n >= r["budget"]:
                 continue
             m = c.popsize
             rows = F[i:i + m]
@@ -543,7 +556,7 @@ class VariationalGA:
                     r["best"][j] = (mem.bits.copy(), mem.f.copy())
             r["evals"][j] += m
             i += m
-        if all(n >= self.cfg.refine_evals for n in r["evals"]):
+        if all(n >= r["budget"] for n in r["evals"]):
             self._finish_refine()
 
     def _finish_refine(self) -> None:
@@ -566,7 +579,7 @@ class VariationalGA:
         if r is None:
             return {"pool": pool}
         return {"pool": pool, "members": r["members"], "evals": r["evals"],
-                "cma": [c.state() for c in r["cma"]],
+                "budget": r["budget"], "cma": [c.state() for c in r["cma"]],
                 "best": [{"b": _bits_text(b), "f": f.tolist()} for b, f in r["best"]]}
 
     def _load_refine_state(self, st) -> None:
@@ -577,6 +590,7 @@ class VariationalGA:
             self._refine = None
             return
         self._refine = {"members": list(st["members"]), "evals": list(st["evals"]),
+                        "budget": st.get("budget", self.cfg.refine_evals),
                         "cma": [self._new_cma(self.q0, 1).load_state(t) for t in st["cma"]],
                         "best": [(_bits_array(b["b"]), np.array(b["f"], float))
                                  for b in st["best"]]}
