@@ -27,7 +27,7 @@ from descent_fmus.synthesis.cosim import Wiring
 from descent_fmus.synthesis.paths import require_fmu
 
 __all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp",
-           "add_units", "units_into_model_description", "refine_container"]
+           "add_units", "add_status_wrapper", "refine_container"]
 
 #: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
 MODELS = Path(__file__).resolve().parent.parent / "models"
@@ -182,52 +182,10 @@ def _rewrite_model_description(fmu: Path, edit) -> Path:
     return fmu
 
 
-def _unit_definitions(units) -> ET.Element:
-    """``<UnitDefinitions>`` of the unit names ``units`` (SI exponents from synthesis.units)."""
-    from descent_fmus.synthesis.units import base_unit
-    defs = ET.Element("UnitDefinitions")
-    for name in sorted(units):
-        unit = ET.SubElement(defs, "Unit", {"name": name})
-        base = base_unit(name)
-        if base is not None:
-            exps, factor = base
-            attrs_ = {b: str(e) for b, e in exps.items()}
-            if factor != 1.0:
-                attrs_["factor"] = repr(factor)
-            ET.SubElement(unit, "BaseUnit", attrs_)
-    return defs
-
-
-def units_into_model_description(root: ET.Element) -> set:
-    """Give every Real variable the unit its description ends with (``"... [m/s]"``) and
-    declare the units in ``<UnitDefinitions>``; return the unit names.
-
-    The bracket is where the one definition of a unit (``models.params.param`` for parameters,
-    the FMU class for inputs and outputs) reaches the model description; pythonfmu has no unit
-    attribute.  FMI 2.0 gives only Real variables a ``unit``.
-    """
-    from descent_fmus.synthesis.units import unit_of_description
-    units = set()
-    for sv in root.iter("ScalarVariable"):
-        unit = unit_of_description(sv.get("description"))
-        kind = sv[0]
-        if unit is not None and kind.tag == "Real":
-            kind.set("unit", unit)
-            units.add(unit)
-    old = root.find("UnitDefinitions")
-    if old is not None:
-        root.remove(old)
-    if units:
-        children = list(root)
-        at = max((k + 1 for k, c in enumerate(children)
-                  if c.tag in ("ModelExchange", "CoSimulation")), default=0)
-        root.insert(at, _unit_definitions(units))
-    return units
-
-
 def add_units(fmu: Path) -> Path:
     """Write the units of an FMU's variables into its model description (see
     :func:`units_into_model_description`)."""
+    from descent_fmus.synthesis.units import units_into_model_description
     return _rewrite_model_description(Path(fmu), units_into_model_description)
 
 

@@ -21,8 +21,10 @@ from __future__ import annotations
 import math
 import re
 from fractions import Fraction
+from xml.etree import ElementTree as ET
 
-__all__ = ["BASE", "unit_of_description", "normalise", "base_unit", "UnitError"]
+__all__ = ["BASE", "unit_of_description", "normalise", "base_unit", "UnitError",
+           "units_into_model_description"]
 
 #: FMI 2.0 base-unit attributes (exponents), in schema order.
 BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
@@ -101,3 +103,44 @@ def base_unit(unit: str) -> tuple[dict, float] | None:
     if any(e.denominator != 1 for e in exps.values()):
         return None
     return {b: int(exps[b]) for b in BASE if b in exps}, factor
+
+
+def _unit_definitions(units) -> ET.Element:
+    """``<UnitDefinitions>`` of the unit names ``units`` (SI exponents from synthesis.units)."""
+    defs = ET.Element("UnitDefinitions")
+    for name in sorted(units):
+        unit = ET.SubElement(defs, "Unit", {"name": name})
+        base = base_unit(name)
+        if base is not None:
+            exps, factor = base
+            attrs_ = {b: str(e) for b, e in exps.items()}
+            if factor != 1.0:
+                attrs_["factor"] = repr(factor)
+            ET.SubElement(unit, "BaseUnit", attrs_)
+    return defs
+
+
+def units_into_model_description(root: ET.Element) -> set:
+    """Give every Real variable the unit its description ends with (``"... [m/s]"``) and
+    declare the units in ``<UnitDefinitions>``; return the unit names.
+
+    The bracket is where the one definition of a unit (``models.params.param`` for parameters,
+    the FMU class for inputs and outputs) reaches the model description; pythonfmu has no unit
+    attribute.  FMI 2.0 gives only Real variables a ``unit``.
+    """
+    units = set()
+    for sv in root.iter("ScalarVariable"):
+        unit = unit_of_description(sv.get("description"))
+        kind = sv[0]
+        if unit is not None and kind.tag == "Real":
+            kind.set("unit", unit)
+            units.add(unit)
+    old = root.find("UnitDefinitions")
+    if old is not None:
+        root.remove(old)
+    if units:
+        children = list(root)
+        at = max((k + 1 for k, c in enumerate(children)
+                  if c.tag in ("ModelExchange", "CoSimulation")), default=0)
+        root.insert(at, _unit_definitions(units))
+    return units
