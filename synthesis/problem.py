@@ -81,7 +81,7 @@ class Report:
     """
 
     def headline(self, front: np.ndarray) -> dict:
-        """Progress-bar fields from the current Pareto front (rows of objective vectors)."""
+        """Progress-bar fields from the non-dominated laws so far (rows of objective vectors)."""
         return {}
 
     def summary(self, rows: list, out: Path | None, reference: bool = True) -> dict:

@@ -200,7 +200,10 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
             post = dict(post_gen, **{"evals/s": f"{rate:.0f}", "front": len(front)})
             for k, n in enumerate(names):
                 post[f"min {n}"] = f"{front[:, k].min():.4g}"
-            post.update(problem.report.headline(front))
+            # the best so far: the run's archive (the population misses the refinements'
+            # candidates until a refinement ends)
+            best = np.array([a[2] for a in g.archive]) if g.archive else front
+            post.update(problem.report.headline(best))
             bar.set_postfix(post, refresh=False)
             bar.refresh()
         if stop_after is not None and g.generation - start_gen >= stop_after \
