@@ -253,8 +253,7 @@ TARGET_TIGHT = Target(objective=0, constraint=1, limit=TIGHT_MISS)
 #: Gray code of the parameters [choice]: 6 + 18 bits over [-64, 64) -- signed polynomial
 #: coefficients (CMA-ES finds some beyond 16) on a grid of 7.6e-6, fine enough that the
 #: refinement's steps are not lost to rounding.  (The CMA-ES polynomial baseline, unbounded,
-#: puts its best coefficients at up to ~250; a range of [-512, 512) with 8000 flights of basis
-#: refinement was tried and did not help: seed 1 stayed at 8.44.)
+#: puts its best coefficients at up to ~250, beyond this range.)
 Q_BITS = (6, 18, -64.0, 64.0)
 
 _PENALTY = (DIVERGED_J1, 2 * NOT_LANDED_PENALTY)
