@@ -109,3 +109,37 @@ def test_cma_candidates_are_mapped_and_bounded():
     assert all(np.all(np.abs(x) <= 1.0) and np.array_equal(x, np.round(x, 2)) for x in xs)
     with pytest.raises(ValueError, match="finite values"):
         c.tell([math.nan] * len(xs))
+
+
+def test_spawned_search_keeps_the_step_size_and_covariance_at_a_new_mean():
+    # a warm start for a neighbouring structure: the parent's adaptation (sigma, covariance,
+    # population) at the child's start point, with the child's own random stream
+    parent = CMA([0.5, -0.5, 0.2], 0.3, seed=3)
+    bowl = lambda xs: [float(np.sum((x - [0.1, 0.2, 0.3]) ** 2)) for x in xs]  # noqa: E731
+    for _ in range(30):
+        parent.tell(bowl(parent.ask()))
+    child = parent.spawn([1.0, 1.0, 1.0], seed=9)
+    assert child.sigma == parent.sigma and child.popsize == parent.popsize
+    assert np.array_equal(child.es.C, parent.es.C)
+    assert child.es.mean * child.scale == pytest.approx([1.0, 1.0, 1.0], rel=1e-12)
+    assert child.best_x is None and child.restarts == 0
+    again = parent.spawn([1.0, 1.0, 1.0], seed=9)          # seeded: the same candidates
+    a, b = child.ask(), parent.ask()
+    assert not np.allclose(a[0] - [1.0, 1.0, 1.0], b[0] - parent.es.mean * parent.scale)
+    assert all(np.array_equal(x, y) for x, y in zip(again.ask(), a))
+
+
+def test_cma_restart_bookkeeping_survives_a_checkpoint():
+    # IPOP restarts live in CMA (one definition for the baselines and the GA): a search
+    # restored from its state continues exactly as the uninterrupted one, restarts included
+    f = lambda xs: [float((x[0] - 0.1) ** 2 + (x[1] + 0.3) ** 2) for x in xs]  # noqa: E731
+
+    def run(c, n):
+        for _ in range(n):
+            c.tell(f(c.ask()))
+        return c
+    a = run(CMA([0.5, 0.5], 0.3, seed=4, restart_sigma=1e-2, restart_stall=20), 150)
+    b = run(CMA([0.5, 0.5], 0.3, seed=4, restart_sigma=1e-2, restart_stall=20), 70)
+    c = run(CMA([0.0, 0.0], 0.3, seed=1).load_state(b.state()), 80)
+    assert a.restarts >= 1 and c.restarts == a.restarts and c.popsize == a.popsize
+    assert c.best_x == a.best_x and c.best_value == a.best_value

@@ -500,10 +500,15 @@ class VariationalGA:
             seed = int(self.rng.integers(0, 2 ** 31 - 1))
             m = self.pop[k]
             old = self._cma_pool.pop(self._structure_key(m), None)
-            if old is not None and old[0].sigma >= 1e-3 * self.cfg.refine_sigma:
+            q = self.params.decode(m.bits)
+            if old is not None:
                 searches.append(old[0])
+            elif self._cma_pool:
+                # a structure not refined before: warm start from the latest search (most
+                # often its parent's, whose step size and covariance fit a neighbouring law)
+                searches.append(next(reversed(self._cma_pool.values()))[0].spawn(q, seed))
             else:
-                searches.append(self._new_cma(self.params.decode(m.bits), seed))
+                searches.append(self._new_cma(q, seed))
         self._refine = {"members": picks, "cma": searches, "evals": [0] * len(picks),
                         "budget": budget,
                         "best": [(self.pop[k].bits.copy(), self.pop[k].f.copy())
@@ -515,12 +520,13 @@ class VariationalGA:
         return hashlib.sha1(self.matrix(m).tobytes()).hexdigest()
 
     def _new_cma(self, q, seed):
-        from descent_fmus.synthesis.methods.policy_search import CMA
+        from descent_fmus.synthesis.methods.policy_search import CMA, IPOP_SIGMA, IPOP_STALL
         p = self.params
         step = (p.hi - p.lo) / float(1 << p.bits_per)
         grid = lambda x: p.decode(p.encode(x))  # noqa: E731  (what the Gray code can hold)
         return CMA(q, self.cfg.refine_sigma, seed, popsize=self.cfg.refine_popsize or None,
-                   bounds=(p.lo, p.hi - step), x_map=grid)
+                   bounds=(p.lo, p.hi - step), x_map=grid, restart_sigma=IPOP_SIGMA,
+                   restart_stall=IPOP_STALL)
 
     def _refine_members(self) -> list:
         r = self._refine

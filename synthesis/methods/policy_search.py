@@ -23,6 +23,7 @@ N. Hansen, "The CMA Evolution Strategy: A Tutorial", arXiv:1604.00772; pycma (gi
 from __future__ import annotations
 
 import base64
+import copy
 import math
 import pickle
 from dataclasses import dataclass
@@ -31,7 +32,7 @@ import numpy as np
 
 from descent_fmus.synthesis.methods.network_operator import NetworkOperator
 
-__all__ = ["Target", "CMA", "PolicySearch", "polynomial_law", "tanh_network_law", "monomials",
+__all__ = ["Target", "CMA", "IPOP_SIGMA", "IPOP_STALL", "PolicySearch", "polynomial_law", "tanh_network_law", "monomials",
            "NormalSource"]
 
 
@@ -70,6 +71,11 @@ class Target:
         return None if not len(ok) else int(ok[np.argmin(F[ok, self.objective])])
 
 
+#: Default IPOP restart triggers of a search [choice]: step size below 1e-3 of the initial one,
+#: or 60 generations without a better value.
+IPOP_SIGMA, IPOP_STALL = 1e-3, 60
+
+
 class NormalSource:
     """Picklable standard-normal sampler for pycma (``randn(*shape)``) on a seeded Generator."""
 
@@ -81,7 +87,8 @@ class NormalSource:
 
 
 class CMA:
-    """CMA-ES (pycma) on a real vector ``x``, worked on ``x / scale``; seeded, checkpointable.
+    """CMA-ES (pycma) on a real vector ``x``, worked on ``x / scale``; seeded, checkpointable,
+    with IPOP restarts (Auger & Hansen 2005).
 
     Parameters
     ----------
@@ -99,26 +106,39 @@ class CMA:
     x_map : callable, optional
         ``x_map(x) -> x`` applied to every candidate before it is returned (e.g. rounding to
         the grid of a Gray code, so that what is evaluated is exactly representable).
+    restart_sigma, restart_stall : float, int, optional
+        Restart once the step size fell below ``restart_sigma * sigma`` or the best value has
+        not improved for ``restart_stall`` generations: a new search from the best point found,
+        with the initial step size and twice the population (IPOP), seed ``seed + 1000 r`` at
+        the r-th restart.  None: never.
     """
 
     def __init__(self, x0, sigma: float = 0.3, seed: int = 1, scale=None,
                  popsize: int | None = None, bounds: tuple | None = None,
-                 scale_floor: float = 0.1, x_map=None):
-        import cma
+                 scale_floor: float = 0.1, x_map=None, restart_sigma: float | None = None,
+                 restart_stall: int | None = None):
         x0 = np.asarray(x0, float)
         self.scale = (np.maximum(np.abs(x0), scale_floor) if scale is None
                       else np.asarray(scale, float))
         self.bounds = bounds
         self.x_map = x_map
+        self.sigma0, self.seed = float(sigma), int(seed)
+        self.restart_sigma, self.restart_stall = restart_sigma, restart_stall
+        self.restarts, self.best_value, self.best_x, self.stall = 0, math.inf, None, 0
+        self.es = self._strategy(x0, self.seed, popsize)
+        self._pending = None
+
+    def _strategy(self, x0, seed, popsize):
+        import cma
         opts = {"seed": int(seed) % (2 ** 31 - 1) + 1, "verbose": -9,
                 "randn": NormalSource(seed), "tolx": 1e-14, "tolfun": 0, "tolfunhist": 0,
                 "tolflatfitness": 10 ** 9, "tolstagnation": 10 ** 9, "maxiter": 10 ** 9}
         if popsize:
             opts["popsize"] = int(popsize)
-        if bounds is not None:
-            opts["bounds"] = [list(bounds[0] / self.scale), list(bounds[1] / self.scale)]
-        self.es = cma.CMAEvolutionStrategy(list(x0 / self.scale), sigma, opts)
-        self._pending = None
+        if self.bounds is not None:
+            opts["bounds"] = [list(self.bounds[0] / self.scale), list(self.bounds[1] / self.scale)]
+        return cma.CMAEvolutionStrategy(list(np.asarray(x0, float) / self.scale), self.sigma0,
+                                        opts)
 
     @property
     def popsize(self) -> int:
@@ -148,17 +168,56 @@ class CMA:
         if len(values) != len(self._pending) or not all(map(math.isfinite, values)):
             raise ValueError(f"expected {len(self._pending)} finite values, got {values}")
         self.es.tell(self._pending, values)
+        i = int(np.argmin(values))
+        if values[i] < self.best_value:
+            self.best_value, self.best_x, self.stall = values[i], \
+                [float(v) for v in self.x(self._pending[i])], 0
+        else:
+            self.stall += 1
         self._pending = None
+        if (self.restart_sigma is not None and self.sigma < self.restart_sigma * self.sigma0) \
+                or (self.restart_stall is not None and self.stall >= self.restart_stall):
+            self.restart()
+
+    def restart(self, x0=None) -> None:
+        """IPOP restart: a new search from ``x0`` (default the best point found) with the
+        initial step size and twice the population."""
+        self.restarts += 1
+        x0 = x0 if x0 is not None else self.best_x
+        self.es = self._strategy(x0, self.seed + 1000 * self.restarts, 2 * self.popsize)
+        self.stall = 0
+
+    def spawn(self, x0, seed: int) -> "CMA":
+        """A search at ``x0`` that keeps this one's step size, covariance and population (a warm
+        start for a neighbouring problem, e.g. a structure one variation away), with its own
+        random stream (``seed``) and no best point yet."""
+        if self._pending is not None:
+            raise RuntimeError("spawn only between tell() and ask()")
+        child = copy.copy(self)
+        child.es = pickle.loads(pickle.dumps(self.es))
+        child.es.mean = np.asarray(x0, float) / child.scale
+        child.es.opts["randn"].rng = np.random.default_rng(seed)
+        child.seed, child.restarts = int(seed), 0
+        child.best_value, child.best_x, child.stall = math.inf, None, 0
+        return child
+
+    _STATE = ("es", "scale", "sigma0", "seed", "restart_sigma", "restart_stall", "restarts",
+              "best_value", "best_x", "stall")
 
     def state(self) -> str:
-        """The optimiser with its generator and scale, pickled (base64 text)."""
+        """The optimiser with its generator, scale and restart bookkeeping, pickled (base64)."""
         if self._pending is not None:
             raise RuntimeError("checkpoint only between tell() and ask()")
-        return base64.b64encode(pickle.dumps((self.es, self.scale))).decode("ascii")
+        return base64.b64encode(pickle.dumps({k: getattr(self, k) for k in self._STATE})) \
+            .decode("ascii")
 
     def load_state(self, text: str) -> "CMA":
         """Restore a :meth:`state` (unpickled: load only checkpoints this program wrote)."""
-        self.es, self.scale = pickle.loads(base64.b64decode(text))
+        st = pickle.loads(base64.b64decode(text))
+        if isinstance(st, tuple):                    # written before restarts lived here
+            st = {"es": st[0], "scale": st[1]}
+        for k, v in st.items():
+            setattr(self, k, v)
         self._pending = None
         return self
 
@@ -178,32 +237,23 @@ class PolicySearch:
     def __init__(self, structure: NetworkOperator, target: Target, seed: int = 1,
                  sigma: float = 0.3, scale=None, popsize: int | None = None,
                  bounds: tuple | None = None, scale_floor: float = 0.1,
-                 restart_sigma: float = 1e-3, restart_stall: int = 60):
+                 restart_sigma: float = IPOP_SIGMA, restart_stall: int = IPOP_STALL):
         self.structure = structure
         self.target = target
-        self._opts = dict(sigma=sigma, seed=seed, scale=scale, bounds=bounds,
-                          scale_floor=scale_floor)
         self.scale = (np.maximum(np.abs(np.asarray(structure.q, float)), scale_floor)
                       if scale is None else np.asarray(scale, float))
-        self.cma = CMA(structure.q, sigma, seed, self.scale, popsize, bounds, scale_floor)
-        self.restart_sigma, self.restart_stall = restart_sigma, restart_stall
+        self.cma = CMA(structure.q, sigma, seed, self.scale, popsize, bounds, scale_floor,
+                       restart_sigma=restart_sigma, restart_stall=restart_stall)
         self.evaluations = 0
         self.generations = 0
-        self.restarts = 0
         self.best_law, self.best_f = None, None          # best feasible law and its objectives
-        self.best_scalar, self._best_x, self._stall = math.inf, None, 0
         self.history = []            # per generation: (evaluations, best feasible objective)
         self._pending = None
 
-    def _restart(self) -> None:
-        """IPOP restart (Auger & Hansen 2005): twice the population, from the best point found,
-        with the initial step size."""
-        self.restarts += 1
-        o = self._opts
-        x0 = self._best_x if self._best_x is not None else self.structure.q
-        self.cma = CMA(x0, o["sigma"], o["seed"] + 1000 * self.restarts, self.scale,
-                       2 * self.cma.popsize, o["bounds"], o["scale_floor"])
-        self._stall = 0
+    @property
+    def restarts(self) -> int:
+        """IPOP restarts so far (:class:`CMA`)."""
+        return self.cma.restarts
 
     @property
     def popsize(self) -> int:
@@ -228,26 +278,16 @@ class PolicySearch:
         if len(F) != len(self._pending) or not np.all(np.isfinite(F)):
             raise ValueError(f"expected {len(self._pending)} finite objective rows, got shape "
                              f"{F.shape}")
-        s = self.target.scalar(F)
-        self.cma.tell(s)
+        self.cma.tell(self.target.scalar(F))
         k = self.target.best(F)
         obj = self.target.objective
         if k is not None and (self.best_f is None or F[k, obj] < self.best_f[obj]):
             self.best_law, self.best_f = self._pending[k], F[k].copy()
-        i = int(np.argmin(s))
-        if s[i] < self.best_scalar:
-            self.best_scalar, self._best_x, self._stall = float(s[i]), \
-                list(self._pending[i].q), 0
-        else:
-            self._stall += 1
         self._pending = None
         self.evaluations += len(F)
         self.generations += 1
         self.history.append((self.evaluations, None if self.best_f is None
                              else float(self.best_f[obj])))
-        if self.cma.sigma < self.restart_sigma * self._opts["sigma"] \
-                or self._stall >= self.restart_stall:
-            self._restart()
 
     def run(self, evaluate, evaluations: int, callback=None) -> "PolicySearch":
         """Generations until ``evaluations`` more candidates were evaluated (whole generations).
@@ -268,20 +308,18 @@ class PolicySearch:
             raise RuntimeError("checkpoint only between tell() and ask()")
         return {"cma": self.cma.state(), "evaluations": self.evaluations,
                 "generations": self.generations, "restarts": self.restarts,
-                "popsize": self.cma.popsize, "best_scalar": self.best_scalar,
-                "best_x": self._best_x, "stall": self._stall,
                 "best_law": None if self.best_law is None else self.best_law.to_dict(),
                 "best_f": None if self.best_f is None else self.best_f.tolist(),
                 "history": self.history}
 
     def load_state(self, st: dict) -> "PolicySearch":
         """Restore a :meth:`state` of a search with the same structure and options."""
-        o = self._opts
-        self.cma = CMA(self.structure.q, o["sigma"], o["seed"], self.scale, st["popsize"],
-                       o["bounds"], o["scale_floor"]).load_state(st["cma"])
+        self.cma.load_state(st["cma"])
+        if "best_scalar" in st:                  # restart bookkeeping of an older checkpoint
+            c = self.cma
+            c.restarts, c.best_value, c.best_x, c.stall = (st["restarts"], st["best_scalar"],
+                                                           st["best_x"], st["stall"])
         self.evaluations, self.generations = st["evaluations"], st["generations"]
-        self.restarts, self.best_scalar = st["restarts"], st["best_scalar"]
-        self._best_x, self._stall = st["best_x"], st["stall"]
         self.best_law = (None if st["best_law"] is None
                          else NetworkOperator.from_dict(st["best_law"]))
         self.best_f = None if st["best_f"] is None else np.array(st["best_f"], float)
