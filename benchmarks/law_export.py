@@ -31,7 +31,7 @@ from descent_fmus.synthesis.synthesize import replace_law
 def ga_laws(n: int, seed: int = 0) -> list:
     """``n`` laws as the GA makes them: rounds of 8 structural variations of the basic law."""
     problem = get_problem("reentry")
-    basic = problem.basic_law
+    basic = problem.basic()
     codec = StructureCodec(basic.size, basic.nx + len(basic.q), problem.unary, problem.binary)
     rng = np.random.default_rng(seed)
     laws = []

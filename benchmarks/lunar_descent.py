@@ -28,7 +28,7 @@ def main(argv=None) -> int:
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     prob = get_problem("lunar-descent")
-    basic = prob.basic_law
+    basic = prob.basic()
     t0 = time.perf_counter()
     for th, h0 in INITIAL_SET:
         fly_in_process(basic, th, h0)

@@ -47,7 +47,7 @@ def _set_times(loop, problem, law):
 
 def container_vs_master(problem, fmus: Path, repeat: int) -> dict:
     plant, ctrl = problem.fmu_paths(fmus)
-    law = problem.basic_law
+    law = problem.basic()
     master, container = ClosedLoop(problem.wiring, plant, ctrl), \
         ContainerLoop(problem.wiring, plant, ctrl)
     try:

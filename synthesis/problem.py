@@ -116,8 +116,9 @@ class SynthesisProblem:
     objective_names : tuple of str
     penalty : tuple of float
         Objectives of a law whose evaluation failed (an FMU error on that law).
-    basic_law : NetworkOperator
-        The GA's first basic solution.
+    basic_law : NetworkOperator or callable
+        The GA's first basic solution, or a function returning it (read when first needed, e.g.
+        from a law file, so that building the registry reads no file); :meth:`basic` gives it.
     budget : Budget
         Default budget of ``synthesize``.
     objective_labels : tuple of str
@@ -154,7 +155,7 @@ class SynthesisProblem:
     objectives: ObjectiveFunction
     objective_names: tuple
     penalty: tuple
-    basic_law: NetworkOperator
+    basic_law: NetworkOperator | Callable
     budget: Budget = Budget()
     objective_labels: tuple = ()
     unary: tuple = PAPER_UNARY
@@ -175,6 +176,11 @@ class SynthesisProblem:
         if len(self.penalty) != len(self.objective_names):
             raise ValueError(f"problem {self.name!r}: {len(self.objective_names)} objectives "
                              f"but {len(self.penalty)} penalty values")
+
+    def basic(self) -> NetworkOperator:
+        """The GA's first basic solution (``basic_law``, called if it is a function)."""
+        law = self.basic_law
+        return law if isinstance(law, NetworkOperator) else law()
 
     @property
     def labels(self) -> tuple:

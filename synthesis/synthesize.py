@@ -51,7 +51,7 @@ def _write_json(path: Path, data) -> None:
 
 def make_ga(problem: SynthesisProblem, budget: Budget, wide_ops: bool = False) -> VariationalGA:
     """The GA for a problem: basic law, operation sets, Gray coding of q, seeded generator."""
-    basic = problem.basic_law
+    basic = problem.basic()
     ib, fb, lo, hi = problem.q_bits
     unary = WIDE_UNARY if wide_ops else problem.unary
     binary = WIDE_BINARY if wide_ops else problem.binary
@@ -382,7 +382,7 @@ def _write_results(problem, ga, evaluator, out: Path, fmu_dir, export: bool,
                                           for r, (law, _, var) in zip(rows, front)])
 
     pareto_json()
-    fb, _ = evaluator.evaluate([problem.basic_law])
+    fb, _ = evaluator.evaluate([problem.basic()])
     names = problem.objective_names
     summary = {"problem": problem.name, "pareto_size": len(rows),
                "basic_law": dict(zip(names, map(float, fb[0])))}

@@ -43,7 +43,7 @@ def loop(fmu_dir):
 def test_evaluator_runs_the_registered_problem_through_the_fmus(fmu_dir):
     # oracle: the same laws flown in-process (models.lunar_descent.simulate, same equations)
     prob = get_problem("lunar-descent")
-    basic = prob.basic_law
+    basic = prob.basic()
     laws = [basic, basic.with_q([3.4] + basic.q[1:])]
     with Evaluator(prob, fmu_dir) as ev:        # built from FMU paths alone
         F, extras = ev.evaluate(laws + laws)

@@ -35,8 +35,8 @@ def test_baselines_are_laws_of_the_generic_controller(fmu_dir):
         assert flights[name]["J2"] == pytest.approx(paper["J2"], rel=1e-6)
     assert paper["J1"] == pytest.approx(8.820, abs=1e-3)
     # the GA's basic solution is the polynomial structure on 32 nodes (spare nodes)
-    assert REENTRY.basic_law.size == 32
-    assert REENTRY.basic_law.formula() == structures["polynomial"].formula()
+    assert REENTRY.basic().size == 32
+    assert REENTRY.basic().formula() == structures["polynomial"].formula()
 
 
 def test_baseline_run_exports_laws_that_replay_under_fmpy(fmu_dir, tmp_path):

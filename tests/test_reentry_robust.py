@@ -107,7 +107,7 @@ def test_racing_stops_a_law_that_misses_the_nominal_flight(fmu_dir):
         assert len(results) == 1                              # raced out after the nominal
         f, extras = problem.evaluate_flights(results)
         assert f[1] >= 2 * sensed.RACE_OFFSET and extras["raced_out"]
-        good = problem.runner.flights(loop, problem, problem.basic_law)
+        good = problem.runner.flights(loop, problem, problem.basic())
         assert len(good) == sensed.SYNTHESIS_SAMPLES            # flew the whole set
         g, _ = problem.evaluate_flights(good)
         assert g[1] < sensed.RACE_OFFSET                        # ranked before any raced-out law
