@@ -4,18 +4,22 @@
 From the runs of ``synthesize reentry-sensed`` (law of y1, y2, y3), ``synthesize
 reentry-sensed-y12`` (y1, y2 only) and, if given, ``synthesize reentry-sensed --method
 cma-polynomial`` (the CMA-ES baseline), the robust law of each (``sensed.best_row``: lowest J2
-with median J1 < 9.0 and the nominal flight within 1 km) is flown over the held-out set (200 uniform samples, seed 7, disjoint
-from the synthesis set) of both scenarios with the paper's basic law, the nominal synthesised
-law (tests/reference/reentry_best_law.json), the NPC guidance, the best open-loop program of
-each scenario flown blind and the oracle bound.  Writes
+with median J1 < 9.0 and the nominal flight within 1 km) and, if given, the guided law of a
+``synthesize reentry-guided`` run (lowest median J1 with median miss < 1 km) is flown over the
+held-out set (200 uniform samples, seed 7, disjoint from the synthesis set) of both scenarios
+with the paper's basic law, the nominal synthesised law (``nominal_law.json``) alone and with
+the on-board correction, the NPC guidance, the best open-loop program of each scenario flown
+blind and the oracle bound.  Writes
 
 * ``docs/reentry_robust.png`` -- miss CDFs against the oracle, J1 boxplots;
 * ``docs/reentry_robust.json`` -- the table's numbers;
 * ``synthesis/systems/reentry/sensed_law.json`` -- the robust law (the default law of the built
-  ``ReentrySensedClosedLoop.fmu``; the tests fly it).
+  ``ReentrySensedClosedLoop.fmu``; the tests fly it);
+* ``synthesis/systems/reentry/guided_law.json`` -- the guided law (the default law of
+  ``ReentryGuidedClosedLoop.fmu``), with ``--guided``.
 
     python docs/make_reentry_robust_figures.py SENSED_RUN Y12_RUN [--cma CMA_RUN]
-        [--samples 200] [--seed 7] [--fmus DIR] [--programs DIR]
+        [--guided GUIDED_RUN] [--samples 200] [--seed 7] [--fmus DIR] [--programs DIR]
 """
 from __future__ import annotations
 
@@ -46,11 +50,20 @@ def best_law(run: Path) -> tuple[NetworkOperator, dict]:
     return NetworkOperator.from_dict(row["law"]), row
 
 
+def best_guided_law(run: Path) -> tuple[NetworkOperator, dict]:
+    """The guided run's law (lowest median J1 with median miss < 1 km, nominal within 1 km)."""
+    row = sensed.best_guided_row(json.loads((run / "pareto.json").read_text()))
+    if row is None:
+        raise SystemExit(f"{run}: no law with median miss < 1 km")
+    return NetworkOperator.from_dict(row["law"]), row
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("sensed_run", type=Path)
     ap.add_argument("y12_run", type=Path)
     ap.add_argument("--cma", type=Path, help="run of --method cma-polynomial")
+    ap.add_argument("--guided", type=Path, help="run of synthesize reentry-guided")
     ap.add_argument("--samples", type=int, default=200)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--fmus", type=Path, default=fmu_dir())
@@ -68,8 +81,13 @@ def main(argv=None):
     laws["synthesised, y1 y2 (same objective)"], rows["y12"] = best_law(args.y12_run)
     if args.cma:
         laws["CMA-ES polynomial, y1 y2 y3"], rows["cma"] = best_law(args.cma)
-    laws["nominal synthesised law"] = NetworkOperator.load(
-        ROOT / "tests" / "reference" / "reentry_best_law.json")
+    if args.guided:
+        law, rows["guided"] = best_guided_law(args.guided)
+        law.save(sensed.GUIDED_LAW_FILE)
+        laws["synthesised guided law (y1 y2 y3 c + correction)"] = law
+    nominal = NetworkOperator.load(sensed.NOMINAL_LAW_FILE)
+    laws["nominal synthesised law"] = nominal
+    laws["nominal synthesised law + correction c"] = sensed.as_guided(nominal)
     programs = {}
     for name, params in (("default", ReentryParams()), ("second", SECOND_SCENARIO)):
         cached = args.programs / f"open_loop_{name}.json" if args.programs else None

@@ -86,8 +86,12 @@ def _add_synthesize(sub) -> None:
                    help="CMA-ES evaluations per parameter refinement inside the GA (0 = the "
                         "GA alone)")
     g.add_argument("--flights", type=nonnegative_int, default=None,
-                   help="flight budget (closed-loop simulations): a cma-* method flies this "
-                        "many; the network operator stops there too (0 = by generations)")
+                   help="flight budget (laws flown, each over all the problem's initial "
+                        "states): a cma-* method flies this many; the network operator stops "
+                        "there too (0 = by generations)")
+    p.add_argument("--statistic", default=None, metavar="NAME",
+                   help="statistic of the miss over the sample set, for problems judged on one "
+                        "(reentry-sensed, -sensed-y12, -guided): mean, median, p75, p90, max")
     p.add_argument("--method", default="network-operator",
                    help="network-operator (default: the variational GA) or cma-<baseline>: "
                         "CMA-ES over the parameters of one of the problem's fixed structures "
@@ -136,6 +140,24 @@ def load_problem(args):
         raise CliError(str(exc)) from None
 
 
+def with_statistic(problem, name):
+    """``problem`` judged with the set statistic ``name`` (None: unchanged); CliError if the
+    problem has no set statistic or the name is unknown."""
+    if name is None:
+        return problem
+    from dataclasses import replace
+    if not hasattr(problem.objectives, "statistic"):
+        raise CliError(f"problem {problem.name} is not judged on a sample set: --statistic "
+                       f"does not apply")
+    try:
+        objectives = replace(problem.objectives, statistic=name)
+    except ValueError as exc:
+        raise CliError(str(exc)) from None
+    labels = problem.labels[:1] + (f"J2 = {name} miss over the set [m]",) + problem.labels[2:]
+    return problem.with_(objectives=objectives, objective_labels=labels,
+                         source=f"{problem.source}, statistic {name}")
+
+
 def _law_export(args):
     """What ``synthesize`` exports per Pareto law (``--no-export``, ``--export``,
     ``--law-fmu``); a compiler missing for ``--law-fmu native`` is a user error."""
@@ -155,7 +177,7 @@ def run_synthesize(args) -> int:
     from descent_fmus.synthesis.paths import FMUNotFoundError
     from descent_fmus.synthesis.synthesize import RunDirError, run_synthesis
 
-    problem = load_problem(args)
+    problem = with_statistic(load_problem(args), args.statistic)
     try:
         budget = problem.budget.with_(population=args.population,
                                       generations=args.generations,

@@ -412,15 +412,19 @@ class NetworkOperatorController(SlaveBase):
         if any(s != 1.0 for s in self.x_scale[:n]) or any(o != 0.0 for o in self.x_offset[:n]):
             self._scaling = list(zip(self.x_scale[:n], self.x_offset[:n]))
 
+    def law(self, x) -> list:
+        """The clipped outputs of the law for the inputs ``x`` (``nx`` values, unscaled)."""
+        x = list(x)
+        if self._scaling is not None:
+            x = [s * (v - o) for v, (s, o) in zip(x, self._scaling)]
+        z = evaluate(self._program, x + self.q[:self.nq])
+        return [lo if v < lo else (hi if v > hi else v)
+                for v, lo, hi in zip(z, self.u_lo, self.u_hi)]
+
     def _outputs(self):
         if self._dirty:
-            x = self.x[:self.nx]
-            if self._scaling is not None:
-                x = [s * (v - o) for v, (s, o) in zip(x, self._scaling)]
-            z = evaluate(self._program, x + self.q[:self.nq])
-            for k, v in enumerate(z):
-                lo, hi = self.u_lo[k], self.u_hi[k]
-                self._u[k] = lo if v < lo else (hi if v > hi else v)
+            u = self.law(self.x[:self.nx])
+            self._u[:len(u)] = u
             self._dirty = False
         return self._u
 

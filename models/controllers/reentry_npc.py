@@ -23,13 +23,17 @@ import math
 from dataclasses import dataclass
 
 from descent_fmus.models.controllers.drag_estimator import (DragEstimatorParams,
+                                                            SensedNetworkOperatorController,
                                                             _EstimatorInputs)
 from descent_fmus.models.fmu_support import SlaveBase
-from descent_fmus.models.integrators import EVENT, advance_to
-from descent_fmus.models.params import param
-from descent_fmus.models.reentry import T_PLUS, U_BOUNDS, ReentryParams, altitude, downrange, rhs
+from descent_fmus.models.integrators import EVENT, OK, advance_to
+from descent_fmus.models.controllers.network_operator import NX_MAX
+from descent_fmus.models.params import ParameterError, param
+from descent_fmus.models.reentry import (T_PLUS, U_BOUNDS, ReentryParams, altitude, deviations,
+                                         downrange, rhs)
 
-__all__ = ["NPCParams", "predict_range", "solve_control", "ReentryNPC"]
+__all__ = ["NPCParams", "GuidedParams", "predict_range", "solve_control", "ReentryNPC",
+           "GuidedNetworkOperatorController"]
 
 #: Prediction horizon beyond the current time [s] (a flight that has not reached hf by then
 #: counts as flying too far).
@@ -50,16 +54,44 @@ class NPCParams(DragEstimatorParams):
                           positive=True)
 
 
-def predict_range(x, u: float, kd: float, model: ReentryParams = ReentryParams(),
+@dataclass(frozen=True)
+class GuidedParams(NPCParams):
+    """Parameters of the guided network-operator law (plus the NPC's and the estimator's)."""
+
+    correction_max: float = param(0.4, "1", "bound of the on-board correction c: |c| <= this",
+                                  positive=True)
+    correction_gain: float = param(1.0, "1", "gain g of the correction added to the law's "
+                                   "clipped output: u = clip(phi + g c)")
+    h0_line: float = param(100_000.0, "m", "entry altitude of the straight line y1, y2 refer "
+                           "to (the plant's h0)", positive=True)
+
+
+def predict_range(x, u, kd: float, model: ReentryParams = ReentryParams(),
                   dt: float = 2.0) -> float:
-    """Predicted down-range [m] at h = hf from state ``x`` with the control held at ``u`` and the
-    drag factor ``kd`` = S rho0 / m [1/m]; :data:`NOT_REACHED` if hf is not reached within the
-    horizon (a flight that goes on counts as far too long)."""
+    """Predicted down-range [m] at h = hf from state ``x`` with the drag factor ``kd`` =
+    S rho0 / m [1/m] and the control ``u``: a number held over the whole prediction, or a
+    function ``u(x)`` of the predicted state, evaluated and held every ``dt``;
+    :data:`NOT_REACHED` if hf is not reached within the horizon (a flight that goes on counts
+    as far too long)."""
     gm, _, lam, rz = model.constants()
     rz_hf = rz + model.hf
-    xe, _, outcome = advance_to(rhs, tuple(x), 0.0, HORIZON, dt, (u, gm, kd, lam, rz),
-                                event=lambda y: math.hypot(y[0], y[2]) - rz_hf)
-    return downrange(xe, rz) if outcome == EVENT else NOT_REACHED
+
+    def event(y):
+        return math.hypot(y[0], y[2]) - rz_hf
+
+    x = tuple(x)
+    if not callable(u):
+        xe, _, outcome = advance_to(rhs, x, 0.0, HORIZON, dt, (u, gm, kd, lam, rz), event=event)
+        return downrange(xe, rz) if outcome == EVENT else NOT_REACHED
+    t = 0.0
+    while t < HORIZON - 1e-9:
+        x, _, outcome = advance_to(rhs, x, 0.0, dt, dt, (u(x), gm, kd, lam, rz), event=event)
+        if outcome == EVENT:
+            return downrange(x, rz)
+        if outcome != OK:
+            break
+        t += dt
+    return NOT_REACHED
 
 
 def solve_control(miss, u0: float, tol: float, max_iter: int, bounds=U_BOUNDS):
@@ -157,3 +189,122 @@ class ReentryNPC(_EstimatorInputs, SlaveBase):
         self._t = current_time + step_size
         self._fresh = False
         return True
+
+
+class GuidedNetworkOperatorController(SensedNetworkOperatorController):
+    """A network-operator law with an on-board predictor-corrector:
+    ``u = clip(phi(y1, y2, y3, c, q) + g c)``.
+
+    Everything of :class:`~models.controllers.drag_estimator.SensedNetworkOperatorController`
+    (the law reads the drag-factor estimate y3 at ``x[estimate_input]``), plus the correction c:
+    added with gain ``correction_gain`` g to the law's clipped output (then clipped again to the
+    same bounds), and read by the law at ``x[correction_input]`` (default 4; 0, or an input the
+    law does not have: not read).  Every ``cycle`` seconds the controller predicts the flight to
+    hf with the nominal model, the estimated drag factor and *this guidance itself* (y1, y2 of
+    the predicted state, y3 held, c constant; RK4 steps of ``dt_pred``, the control held over
+    each) and solves for the c in [-correction_max, correction_max] whose predicted down-range
+    is Lf (:func:`solve_control`).  A synthesised law keeps its shape (what lowers the load)
+    while c absorbs the range error the dispersion causes -- the predictor-corrector idea
+    applied to a feedback law instead of a constant control.  The law's inputs 1 and 2 are y1
+    and y2 (the plant's outputs; the prediction computes them with
+    :func:`models.reentry.deviations` on the line from ``h0_line`` to the nominal hf, Lf).
+    Outputs: ``correction`` (c), ``predicted_miss`` [m] and ``predictions``.
+    """
+
+    params_class = GuidedParams
+    description = ("Network-operator law reading the drag-factor estimate y3 and an on-board "
+                   "predictor-corrector correction c: u = phi(y1, y2, y3, c, q)")
+
+    def __init__(self, **kwargs):
+        self._guided = False
+        self._c, self._miss, self._n_pred = 0.0, 0.0, 0
+        super().__init__(**kwargs)
+        self.int_parameter("correction_input", 4, "law input receiving the correction c "
+                           "(0 = none) [1]")
+        self.output("correction", "on-board correction c of the last cycle [1]",
+                    getter=lambda: self._c)
+        self.output("predicted_miss", "predicted L(hf) - Lf at the last correction [m]",
+                    getter=lambda: self._miss)
+        self.int_output("predictions", "on-board predictions so far [1]",
+                        getter=lambda: self._n_pred)
+        self._guided = True
+        self.apply_resource_defaults()
+        self.check_parameters()
+        self.prepare()
+
+    def apply_resource_defaults(self) -> None:
+        if self._guided:
+            super().apply_resource_defaults()
+
+    def check_parameters(self) -> None:
+        super().check_parameters()
+        if self._guided:
+            if not 0 <= self.correction_input <= NX_MAX:
+                raise ParameterError(f"correction_input = {self.correction_input} outside "
+                                     f"0..{NX_MAX}")
+            if self.correction_input and self.correction_input == self.estimate_input:
+                raise ParameterError("correction_input and estimate_input must differ")
+
+    def prepare(self) -> None:
+        super().prepare()
+        if self._guided:
+            self._model = ReentryParams()
+            self._line = ReentryParams(h0=self.h0_line)
+            self._kd = self._model.constants()[1]
+            self._t, self._next = 0.0, 0.0
+            self._c, self._miss, self._n_pred = 0.0, 0.0, 0
+
+    def _outputs(self):
+        if self._dirty and self._guided and self._active():
+            x = self.nav_state()
+            if self._t >= self._next - 1e-9 and altitude(x, self._model.Rz) > self._model.hf:
+                self._correct(x)
+                self._next += self.cycle * max(1, math.ceil((self._t - self._next) /
+                                                            self.cycle + 1e-9))
+            if self._reads_c():
+                self.x[self.correction_input - 1] = self._c
+            u = super()._outputs()
+            if self.correction_gain:
+                u[0] = self._corrected(u[0], self._c)
+            return u
+        return super()._outputs()
+
+    def _reads_c(self) -> bool:
+        return 0 < self.correction_input <= self.nx
+
+    def _active(self) -> bool:
+        return self._reads_c() or self.correction_gain != 0.0
+
+    def _corrected(self, u: float, c: float) -> float:
+        """The law's clipped output plus g c, clipped to the same bounds."""
+        v = u + self.correction_gain * c
+        return self.u_lo[0] if v < self.u_lo[0] else (self.u_hi[0] if v > self.u_hi[0] else v)
+
+    def _correct(self, x) -> None:
+        y3 = self.current_estimate()
+        kd = self._kd * math.exp(y3)
+        inputs = list(self.x[:self.nx])
+        if 0 < self.estimate_input <= self.nx:
+            inputs[self.estimate_input - 1] = y3
+        k_c, line, law = self.correction_input - 1, self._line, self.law
+        reads, gain, corrected = self._reads_c(), self.correction_gain, self._corrected
+
+        def miss(c):
+            if reads:
+                inputs[k_c] = c
+
+            def control(xp):
+                inputs[0], inputs[1] = deviations(xp, line)
+                u = law(inputs)[0]
+                return corrected(u, c) if gain else u
+            return predict_range(x, control, kd, self._model, self.dt_pred) - self._model.Lf
+
+        bound = self.correction_max
+        self._c, self._miss, n = solve_control(miss, self._c, self.tol, self.max_iter,
+                                               (-bound, bound))
+        self._n_pred += n
+
+    def do_step(self, current_time: float, step_size: float) -> bool:
+        ok = super().do_step(current_time, step_size)
+        self._t = current_time + step_size
+        return ok

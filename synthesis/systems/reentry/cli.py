@@ -45,11 +45,17 @@ def add_commands(sub) -> None:
     o.set_defaults(func=run_bound)
 
     r = sub.add_parser("robustness", help="guidance options over a held-out dispersion set "
-                       "through the FMUs: laws (with the drag estimator if they read y3), the "
-                       "NPC guidance, the blind open-loop program, the oracle bound")
+                       "through the FMUs: laws (with the drag estimator if they read y3, with "
+                       "the on-board correction if they read c), the NPC guidance, the blind "
+                       "open-loop program, the oracle bound")
     r.add_argument("--law", type=Path, action="append", default=[],
                    help="law JSON of any S1 problem (repeatable); a law reading y3 flies with "
                         "the drag estimator; the paper's basic law is always flown too")
+    r.add_argument("--guided", type=Path, action="append", default=[], metavar="LAW",
+                   help="law JSON of y1, y2 (or y1, y2, y3) flown with the on-board "
+                        "predictor-corrector correction c added (GuidedNetworkOperatorController;"
+                        " repeatable); a law of reentry-guided (inputs y1, y2, y3, c) does so "
+                        "with --law already")
     r.add_argument("--program", type=Path, help="open-loop program JSON of the default scenario "
                    "(reentry bound --out), flown blind")
     r.add_argument("--program-second", type=Path, metavar="FILE",
@@ -128,13 +134,18 @@ def run_robustness(args) -> int:
     from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
                                                                       robust_study, table_lines)
 
+    from descent_fmus.synthesis.systems.reentry.sensed import as_guided
+
     laws = {}
-    for path in args.law:
+    for path, guided in [(p, False) for p in args.law] + [(p, True) for p in args.guided]:
+        name = Path(path).stem if Path(path).name != "law.json" else str(Path(path).parent)
         try:
-            laws[Path(path).stem if Path(path).name != "law.json" else str(Path(path).parent)] \
-                = NetworkOperator.load(path)
-        except (OSError, LawFileError) as exc:
+            law = NetworkOperator.load(path)
+            if guided:
+                law, name = as_guided(law), f"{name} + correction c"
+        except (OSError, LawFileError, ValueError) as exc:
             raise CliError(f"cannot read law {path}: {exc}") from None
+        laws[name] = law
     programs = {}
     for scenario, path in (("default", args.program), ("second", args.program_second)):
         if path:

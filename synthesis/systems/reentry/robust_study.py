@@ -81,20 +81,28 @@ def _sensing(noise: float, bias: float, k: int, seed: int) -> dict:
     return {"noise": noise, "bias": bias, "noise_seed": 1000 * seed + k}
 
 
-def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise, bias, seed):
+def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise, bias, seed,
+              per_sample=None):
     rows = []
     with ClosedLoop(wiring, fmu_dir / plant, fmu_dir / ctrl_fmu) as loop:
         for k, p in enumerate(params):
             cv = dict(controller_values)
             cv.update(_sensing(noise, bias, k, seed))
+            if per_sample is not None:
+                cv.update(per_sample(p))
             rows.append(spec.objectives(loop.run(spec.plant_values(p), cv).final, p))
     return rows
 
 
 def fly_law(law: NetworkOperator, params, fmu_dir, noise: float = 0.0, bias: float = 0.0,
             seed: int = 0) -> list:
-    """Objectives of ``law`` on every sample (the sensed wiring if the law reads y3)."""
+    """Objectives of ``law`` on every sample (the guided wiring if the law reads the on-board
+    correction c, the sensed wiring if it reads y3)."""
     fmu_dir = Path(fmu_dir)
+    if sensed.reads_correction(law):
+        return _fly_loop(sensed.GUIDED_WIRING, fmu_dir, "Reentry.fmu",
+                         "GuidedNetworkOperatorController.fmu", params, law.start_values(),
+                         noise, bias, seed, per_sample=lambda p: {"h0_line": p.h0})
     if sensed.reads_estimate(law):
         return _fly_loop(sensed.SENSED_WIRING, fmu_dir, "Reentry.fmu",
                          "SensedNetworkOperatorController.fmu", params, law.start_values(),

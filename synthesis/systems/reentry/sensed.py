@@ -34,7 +34,8 @@ from descent_fmus.synthesis.systems.reentry import problems as spec
 
 __all__ = ["SENSED_WIRING", "NPC_WIRING", "SENSED_LOOP_PARAMETERS", "NPC_LOOP_PARAMETERS",
            "STATISTICS", "statistic", "synthesis_set", "RobustObjectives", "proceed",
-           "sensed_basic_law", "sensed_baselines", "problems", "SENSED_BUDGET", "SYNTHESIS_SEED",
+           "sensed_basic_law", "sensed_baselines", "GUIDED_WIRING", "GUIDED_LOOP_PARAMETERS",
+           "reads_correction", "as_guided", "default_guided_law", "best_guided_row", "problems", "SENSED_BUDGET", "SYNTHESIS_SEED",
            "SYNTHESIS_SAMPLES", "MISS_CAP", "reads_estimate", "J1_LIMIT", "best_row"]
 
 _NAV = (("x1", "nav_x1"), ("x2", "nav_x2"), ("x3", "nav_x3"), ("x4", "nav_x4"))
@@ -75,11 +76,28 @@ NPC_WIRING = Wiring(
                 "predicted miss every cycle)",
 )
 
+GUIDED_WIRING = Wiring(
+    name="ReentryGuidedClosedLoop",
+    plant="Reentry",
+    controller="GuidedNetworkOperatorController",
+    to_controller=(("y1", "x[1]"), ("y2", "x[2]"), ("aero_load", "a_drag")) + _NAV,
+    to_plant=(("u[1]", "u"),),
+    step=spec.STEP,
+    stop_time=T_PLUS,
+    stop=STATUS_STOP,
+    exposed=_EXPOSED + (("u", "controller", "u[1]"), ("correction", "controller", "correction"),
+                        ("predicted_miss", "controller", "predicted_miss")),
+    description="S1 Earth reentry (Reentry plant) under a network-operator law reading the "
+                "drag-factor estimate y3 and the on-board correction c (a predictor-corrector "
+                "that predicts with the law itself): u = phi(y1, y2, y3, c, q)",
+)
+
 #: Parameters the closed-loop FMUs expose: the dispersed plant parameters and the sensing.
 _PLANT_PARAMETERS = tuple((n, "plant", n) for n in ("V0", "h0", "beta0", "m", "rho0"))
 _SENSING = tuple((n, "controller", n) for n in ("threshold", "noise", "bias", "noise_seed"))
 SENSED_LOOP_PARAMETERS = _PLANT_PARAMETERS + _SENSING
 NPC_LOOP_PARAMETERS = _PLANT_PARAMETERS + _SENSING + (("cycle", "controller", "cycle"),)
+GUIDED_LOOP_PARAMETERS = NPC_LOOP_PARAMETERS + (("h0_line", "controller", "h0_line"),)
 
 #: The synthesis set [choice]: the nominal flight + 15 uniform samples of the dispersion set,
 #: seed 1 (the held-out study draws other uniform samples, seed 7, without the nominal point).
@@ -229,6 +247,53 @@ def reads_estimate(law: NetworkOperator) -> bool:
     return law.nx >= 3 and (len(names) < 3 or names[2] == "y3")
 
 
+def reads_correction(law: NetworkOperator) -> bool:
+    """Whether a law reads the on-board correction c (its fourth input is c): it then flies on
+    :data:`GUIDED_WIRING`."""
+    names = list(law.input_names or [])
+    return law.nx >= 4 and len(names) >= 4 and names[3] == "c"
+
+
+#: Names and scales of the guided laws' inputs [choice]: y1, y2, y3 as the sensed laws, and
+#: the correction c unscaled (|c| <= 0.4).
+GUIDED_INPUTS = (("y1", spec.INPUT_SCALE[0]), ("y2", spec.INPUT_SCALE[1]),
+                 ("y3", SENSED_INPUT_SCALE[2]), ("c", 1.0))
+
+
+def as_guided(law: NetworkOperator) -> NetworkOperator:
+    """``law`` with the inputs of a guided law (y1, y2, y3, c): a law of (y1, y2) or (y1, y2,
+    y3) gets the missing inputs as unused source nodes (the controller adds c to its output
+    all the same; a variation may connect them).  Identity nodes at the end of the law make
+    room within the controller's node count."""
+    from descent_fmus.models.controllers.network_operator import L_MAX
+    if reads_correction(law):
+        return law
+    names = list(law.input_names or [])
+    want = [n for n, _ in GUIDED_INPUTS]
+    if not 2 <= law.nx <= 3 or names != want[:law.nx] or len(law.outputs) != 1:
+        raise ValueError(f"a guided law needs the inputs {', '.join(want[:3])} (the first two "
+                         f"at least) and one output; got inputs {names}")
+    add = len(want) - law.nx
+    psi, out = law.psi.copy(), law.outputs[0] - 1
+    while psi.shape[0] + add > L_MAX:
+        if out < psi.shape[0] - 1:                   # nodes after the output: unused
+            psi = psi[:-1, :-1]
+            continue
+        src = np.flatnonzero(psi[:out, out])
+        if len(src) != 1 or psi[src[0], out] != 1 or psi[out, out] not in (1, 2):
+            raise ValueError(f"the law needs {add} free nodes for the guided inputs and its "
+                             f"output node is not an identity node that can be dropped")
+        psi, out = psi[:-1, :-1], int(src[0])        # an identity node: its source is the output
+    n, nx = psi.shape[0], law.nx
+    keep = [k if k < nx else k + add for k in range(n)]
+    new = np.zeros((n + add, n + add), dtype=int)
+    new[np.ix_(keep, keep)] = psi
+    scale = list(law.input_scale) + [v for _, v in GUIDED_INPUTS[nx:]]
+    offset = list(law.input_offset) + [0.0] * add
+    return NetworkOperator(new, len(want), list(law.q), [keep[out] + 1], bounds=list(law.bounds),
+                           input_names=want, input_scale=scale, input_offset=offset)
+
+
 def best_row(rows):
     """The robust law of a run [choice]: the lowest J2 among the laws that flew the whole set
     with median J1 below J1_LIMIT and the nominal flight within 1 km (the issue's targets);
@@ -268,6 +333,39 @@ SENSED_CONTAINER = False
 PLAIN_CONTAINER = True
 
 
+#: Default budget of ``reentry-guided`` [choice]: a law costs up to 16 flights of ~0.15 s (the
+#: on-board predictions), so the run stops after 600 law evaluations (about 10 min with 2
+#: workers); CMA-ES tunes the basic solution's parameters first (120 evaluations; its shape is
+#: already a good nominal law), then the GA with 80 evaluations of refinement per epoch.
+GUIDED_BUDGET = Budget(population=32, generations=60, crossovers=8, lchr=8, epoch=10, seed=1,
+                       refine_evals=80, refine_laws=1, refine_basis=120, flights=600)
+
+
+def best_guided_row(rows):
+    """The guided law of a run [choice]: the lowest median J1 among the laws that flew the whole
+    set with a median miss below 1 km and the nominal flight within 1 km; None if there is none."""
+    ok = [r for r in rows if r["J2"] < spec.ON_TARGET and not r.get("raced_out")
+          and r.get("miss_nominal", math.inf) < spec.ON_TARGET]
+    return min(ok, key=lambda r: r["J1"]) if ok else None
+
+
+class GuidedReport(Report):
+    """The guided law by :func:`best_guided_row`."""
+
+    def headline(self, front):
+        ok = front[front[:, 1] < spec.ON_TARGET]
+        return {"J1@miss<1km": f"{ok[:, 0].min():.4f}" if len(ok) else "-"}
+
+    def summary(self, rows, out, reference=True):
+        best = best_guided_row(rows)
+        return {"guided_law": best and {k: best[k] for k in (
+            "k", "J1", "J2", "miss_nominal", "J1_nominal", "within_1km", "formula")
+            if k in best}}
+
+    def lines(self, summary):
+        return [f"  guided_law: {summary.get('guided_law')}"]
+
+
 def problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
              seed: int = SYNTHESIS_SEED) -> tuple:
     """The robust problems over the synthesis set (see the module docstring)."""
@@ -296,6 +394,17 @@ def problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
             baselines=sensed_y12_baselines, runner=Runner(container=PLAIN_CONTAINER, race=race),
             description="S1 reentry, the robust objective of reentry-sensed with a law of y1, y2 "
                         "only (no drag measurement)", **common),
+        SynthesisProblem(
+            name="reentry-guided", wiring=GUIDED_WIRING, basic_law=guided_basic_law,
+            runner=Runner(container=SENSED_CONTAINER, race=race),
+            **dict(common, objectives=RobustObjectives("median", samples),
+                   objective_labels=(labels[0], "J2 = median miss over the set [m]"),
+                   budget=GUIDED_BUDGET, report=GuidedReport(),
+                   target=Target(objective=0, constraint=1, limit=spec.ON_TARGET),
+                   source=f"system reentry (set: {samples} samples, seed {seed}, median)"),
+            description="S1 reentry, guided: a law u = phi(y1, y2, y3, c) plus the on-board "
+                        "correction c (a predictor-corrector flying the law itself), min median "
+                        f"J1 and median miss over the set of {samples} samples"),
     )
 
 
@@ -315,3 +424,28 @@ def default_law() -> NetworkOperator:
 
 def default_law_values() -> dict:
     return default_law().start_values()
+
+
+#: The law the built ``ReentryGuidedClosedLoop.fmu`` carries [choice]: the committed result of
+#: the default ``synthesize reentry-guided`` run if there is one, else its basic solution.
+GUIDED_LAW_FILE = Path(__file__).with_name("guided_law.json")
+
+
+#: The nominal law the guided synthesis starts from [choice]: the best law with miss < 1 km of
+#: the default ``synthesize reentry`` run.
+NOMINAL_LAW_FILE = Path(__file__).with_name("nominal_law.json")
+
+
+def guided_basic_law() -> NetworkOperator:
+    """The guided problem's basic solution: the nominal law with the inputs y3, c added."""
+    return as_guided(NetworkOperator.load(NOMINAL_LAW_FILE))
+
+
+def default_guided_law() -> NetworkOperator:
+    if GUIDED_LAW_FILE.exists():
+        return NetworkOperator.load(GUIDED_LAW_FILE)
+    return guided_basic_law()
+
+
+def default_guided_law_values() -> dict:
+    return default_guided_law().start_values()

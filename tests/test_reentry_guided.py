@@ -1,0 +1,159 @@
+"""S1 guided laws: a network-operator law plus the on-board predictor-corrector correction c
+(GuidedNetworkOperatorController FMU), the reentry-guided problem, bad input.
+
+Oracles: an independent DOP853 integration of the S1 equations under the same sampled feedback
+law (the on-board prediction); the issue's acceptance for guidance (the nominal flight lands
+within 100 m) and the reachable interval of constant controls (a sample inside it is reachable,
+so the guidance must land it); the controller's own parameter rules for bad input.
+"""
+from __future__ import annotations
+
+import math
+
+import pytest
+from scipy.integrate import solve_ivp
+
+from descent_fmus.models.controllers.reentry_npc import predict_range
+from descent_fmus.models.reentry import ReentryParams, deviations, initial_state
+from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
+from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry import sensed
+from descent_fmus.synthesis.systems.reentry.oracle import oracle_bound
+from descent_fmus.synthesis.systems.reentry.robust_study import fly_law
+
+P0 = ReentryParams()
+NOMINAL = NetworkOperator.load(sensed.NOMINAL_LAW_FILE)
+
+
+def _range_dop853_sampled(p: ReentryParams, control, dt: float) -> float:
+    """Down-range at hf under ``u = control(x)`` held over every ``dt`` (DOP853 per interval)."""
+    mu, kd = p.g0 * p.Rz ** 2, p.S * p.rho0 / p.m
+    x, t = list(initial_state(p)), 0.0
+
+    def landing(t, x):
+        return math.hypot(x[0], x[2]) - p.Rz - p.hf
+    landing.terminal, landing.direction = True, -1
+    while t < 600.0:
+        u = control(x)
+
+        def f(t, x, u=u):
+            r = math.hypot(x[0], x[2])
+            d = (1 + u) * kd * math.hypot(x[1], x[3]) * math.exp(-p.lam * (r - p.Rz))
+            return [x[1], -mu * x[0] / r ** 3 - d * x[1], x[3], -mu * x[2] / r ** 3 - d * x[3]]
+        sol = solve_ivp(f, (t, t + dt), x, method="DOP853", events=landing, rtol=1e-11,
+                        atol=1e-6)
+        if sol.t_events[0].size:
+            xe = sol.y_events[0][0]
+            return p.Rz * math.atan2(xe[0], xe[2])
+        x, t = list(sol.y[:, -1]), t + dt
+    raise AssertionError("hf not reached")
+
+
+@pytest.mark.parametrize("dt", [1.0, 2.0])
+def test_prediction_with_a_feedback_law_against_an_independent_integration(dt):
+    # the on-board prediction flying a feedback law (the nominal law plus c = -0.05, clipped)
+    # with a drag factor 8 % above nominal, against DOP853 with the same held controls
+    p = P0.with_(rho0=P0.rho0 * 1.08)
+
+    def control(x):
+        return min(max(NOMINAL(deviations(x, P0))[0] - 0.05, -0.2), 0.2)
+    predicted = predict_range(initial_state(P0), control, p.S * p.rho0 / p.m, P0, dt=dt)
+    # RK4 on the held intervals agrees with DOP853 to millimetres here; 1 m
+    assert predicted == pytest.approx(_range_dop853_sampled(p, control, dt), abs=1.0)
+
+
+def test_as_guided_keeps_the_law_and_adds_the_inputs():
+    g = sensed.as_guided(NOMINAL)
+    assert g.input_names == ["y1", "y2", "y3", "c"] and g.size <= 32
+    assert sensed.reads_correction(g) and not sensed.reads_correction(NOMINAL)
+    for y in [(0.01, -0.3), (0.001, -0.45), (-0.02, -0.8)]:
+        # the inserted inputs are unused: same value whatever y3 and c are (closed form)
+        assert g.raw(list(y) + [0.1, 0.3])[0] == NOMINAL.raw(list(y))[0]
+    assert sensed.as_guided(g) is g
+    with pytest.raises(ValueError, match="guided law needs the inputs"):
+        sensed.as_guided(NetworkOperator.linear([[1.0, 1.0, 1.0, 1.0, 1.0]]))
+
+
+def test_guided_law_lands_the_nominal_and_a_reachable_dispersed_flight(fmu_dir):
+    # issue acceptance for guidance: the nominal flight within 100 m; rho0 - 10 %, V0 + 20 m/s
+    # lies inside the reachable interval of constant controls (the oracle lands it exactly)
+    p = P0.with_(rho0=P0.rho0 * 0.90, V0=P0.V0 + 20.0)
+    assert oracle_bound(p).exact
+    nominal, dispersed = fly_law(sensed.as_guided(NOMINAL), [P0, p], fmu_dir)
+    assert nominal["landed"] and nominal["J2"] < 100.0
+    assert dispersed["landed"] and dispersed["J2"] < 100.0
+    # the law alone (no correction) misses that sample by kilometres: c does the work
+    (alone,) = fly_law(NOMINAL, [p], fmu_dir)
+    assert alone["J2"] > 1000.0
+
+
+@pytest.mark.parametrize("bad, message", [
+    ({"correction_input": 3}, "correction_input and estimate_input must differ"),
+    ({"correction_max": -0.1}, "correction_max must be > 0"),
+    ({"cycle": 0.0}, "cycle must be > 0"),
+])
+def test_guided_controller_rejects_bad_parameters(fmu_dir, bad, message):
+    values = dict(sensed.guided_basic_law().start_values(), **bad)
+    with ClosedLoop(sensed.GUIDED_WIRING, fmu_dir / "Reentry.fmu",
+                    fmu_dir / "GuidedNetworkOperatorController.fmu") as loop:
+        with pytest.raises(FMUError, match=message):
+            loop.run(spec.plant_values(P0), values)
+
+
+def test_guided_problem_judges_the_basic_solution_on_the_set(fmu_dir):
+    # the basic solution of reentry-guided (the nominal law plus c) over the 16-sample set:
+    # the correction brings the median miss within the issue's 1 km; the law alone misses the
+    # set by kilometres (the reentry-sensed-y12 objective of the same law, mean miss)
+    problem = get_problem("reentry-guided")
+    plant, ctrl = problem.fmu_paths(fmu_dir)
+    with ClosedLoop(problem.wiring, plant, ctrl) as loop:
+        f, extras = problem.evaluate_flights(problem.runner.flights(loop, problem,
+                                                                    problem.basic()))
+    assert extras["flights"] == sensed.SYNTHESIS_SAMPLES and extras["miss_nominal"] < 100.0
+    assert f[1] < 1000.0 and extras["within_1km"] >= 0.6
+    alone = fly_law(NOMINAL, sensed.synthesis_set(), fmu_dir)
+    assert sorted(r["J2"] for r in alone)[len(alone) // 2] > 1000.0
+
+
+def test_guided_cli_bad_input_is_a_one_line_error(tmp_path, capsys):
+    from descent_fmus.synthesis.cli import main
+    law = tmp_path / "five.json"
+    NetworkOperator.linear([[1.0, 1.0, 1.0, 1.0, 1.0]]).save(law)
+    for argv in (["reentry", "robustness", "--guided", str(law)],
+                 ["synthesize", "reentry-guided", "--statistic", "p99"],
+                 ["synthesize", "reentry", "--statistic", "median"]):
+        assert main(argv + ["--out", str(tmp_path / "o")] if argv[0] == "synthesize"
+                    else argv) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1, err
+
+
+def test_exported_guided_closed_loop_reproduces_the_evaluators_flights(fmu_dir, tmp_path):
+    # the guided law as users get it (the controller FMU with the estimator, the predictor and
+    # the law as defaults; closed-loop container; SSP), flown by fmpy simulate from the first
+    # points of the synthesis set: the same flights as the evaluator's Python master
+    from fmpy import extract, instantiate_fmu, read_model_description, simulate_fmu
+
+    from descent_fmus.models.reentry import T_PLUS
+    from descent_fmus.synthesis.law_export import export_law_files
+    problem = get_problem("reentry-guided")
+    law = sensed.default_guided_law()
+    out = export_law_files(law, tmp_path / "law", law_fmu="native", fmu_dir=fmu_dir,
+                           problem=problem, closed_loop=True)
+    assert out["law_fmu"] == "python" and out["ssp"].endswith(".ssp")
+    states = problem.initial_states[:3]
+    with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu",
+                    fmu_dir / "GuidedNetworkOperatorController.fmu") as loop:
+        ref = [loop.run(s, law.start_values()).final for s in states]
+    unzipped = extract(out["closed_loop_fmu"], str(tmp_path / "cl"))
+    fmu = instantiate_fmu(unzipped, read_model_description(unzipped))   # once, reset per run
+    for k, s in enumerate(states):
+        if k:
+            fmu.reset()
+        res = simulate_fmu(unzipped, start_values=s, step_size=T_PLUS, output_interval=T_PLUS,
+                           fmu_instance=fmu, terminate=False, output=["L", "load_max", "status"])
+        for name in ("L", "load_max", "status"):
+            assert res[-1][name] == pytest.approx(ref[k][name], rel=1e-12)
+    fmu.freeInstance()
