@@ -122,7 +122,18 @@ def solve_control(miss, u0: float, tol: float, max_iter: int, bounds=U_BOUNDS):
     return u, miss(u), calls[0] + 1
 
 
-class ReentryNPC(_EstimatorInputs, SlaveBase):
+class _GuidanceCycle:
+    """The guidance cycle of the NPC and the guided law: at a communication point t >= the next
+    correction time, above hf, ``_correct(x)`` runs and the next time moves on by whole cycles.
+    Needs ``_t``, ``_next``, ``_model`` and ``_correct``."""
+
+    def _maybe_correct(self, x, cycle: float) -> None:
+        if self._t >= self._next - 1e-9 and altitude(x, self._model.Rz) > self._model.hf:
+            self._correct(x)
+            self._next += cycle * max(1, math.ceil((self._t - self._next) / cycle + 1e-9))
+
+
+class ReentryNPC(_EstimatorInputs, _GuidanceCycle, SlaveBase):
     """FMU of the NPC guidance.
 
     Inputs ``a_drag`` (the plant's aero_load) and the navigated state ``nav_x1..nav_x4``;
@@ -167,11 +178,7 @@ class ReentryNPC(_EstimatorInputs, SlaveBase):
     def _command(self):
         if not self._fresh:
             self._fresh = True
-            x = self.nav_state()
-            if self._t >= self._next - 1e-9 and altitude(x, self._model.Rz) > self._model.hf:
-                self._correct(x)
-                self._next += self._cycle * max(1, math.ceil((self._t - self._next) /
-                                                             self._cycle + 1e-9))
+            self._maybe_correct(self.nav_state(), self._cycle)
         return self._u, self._miss
 
     def _correct(self, x) -> None:
@@ -191,7 +198,7 @@ class ReentryNPC(_EstimatorInputs, SlaveBase):
         return True
 
 
-class GuidedNetworkOperatorController(SensedNetworkOperatorController):
+class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorController):
     """A network-operator law with an on-board predictor-corrector:
     ``u = clip(phi(y1, y2, y3, c, q) + g c)``.
 
@@ -256,11 +263,7 @@ class GuidedNetworkOperatorController(SensedNetworkOperatorController):
 
     def _outputs(self):
         if self._dirty and self._guided and self._active():
-            x = self.nav_state()
-            if self._t >= self._next - 1e-9 and altitude(x, self._model.Rz) > self._model.hf:
-                self._correct(x)
-                self._next += self.cycle * max(1, math.ceil((self._t - self._next) /
-                                                            self.cycle + 1e-9))
+            self._maybe_correct(self.nav_state(), self.cycle)
             if self._reads_c():
                 self.x[self.correction_input - 1] = self._c
             u = super()._outputs()
