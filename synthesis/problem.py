@@ -54,6 +54,7 @@ class Budget:
                               #: search (0 = none)
     flights: int = 0          #: flight budget: cma-* runs fly this many; the GA stops there
                               #: too (0 = by generations only)
+    basis_rule: str = "compromise"  #: the epoch's new basis (GAConfig.basis_rule)
 
     def __post_init__(self):
         if self.generations < 0:
@@ -66,7 +67,7 @@ class Budget:
         return GAConfig(population=self.population, crossovers=self.crossovers,
                         lchr=self.lchr, epoch=self.epoch, elite_trim=self.elite_trim,
                         refine_evals=self.refine_evals, refine_laws=self.refine_laws,
-                        refine_basis=self.refine_basis)
+                        refine_basis=self.refine_basis, basis_rule=self.basis_rule)
 
     def with_(self, **changes) -> "Budget":
         """A copy with the given fields changed (``None`` values are ignored)."""

@@ -24,7 +24,7 @@ import numpy as np
 
 from descent_fmus.synthesis.evaluator import Evaluator
 from descent_fmus.synthesis.law_export import LawExport, choose_law_fmu, readable_text
-from descent_fmus.synthesis.methods.ga import GrayCodec, StructureCodec, VariationalGA
+from descent_fmus.synthesis.methods.ga import GAConfig, GrayCodec, StructureCodec, VariationalGA
 from descent_fmus.synthesis.methods.network_operator import NetworkOperator
 from descent_fmus.synthesis.problem import Budget, SynthesisProblem
 from descent_fmus.synthesis.run_guard import check_export_space, guarded
@@ -63,7 +63,8 @@ def make_ga(problem: SynthesisProblem, budget: Budget, wide_ops: bool = False) -
     return VariationalGA(GrayCodec(len(basic.q), ib, fb, lo, hi), basic.q,
                          np.random.default_rng(budget.seed), budget.ga_config(), structure,
                          basic.psi, decode,
-                         target=problem.target if (budget.refine_evals or budget.refine_basis)
+                         target=problem.target if (budget.refine_evals or budget.refine_basis
+                                                   or budget.basis_rule == "target")
                          else None)
 
 
@@ -84,8 +85,15 @@ def _run_spec(problem: SynthesisProblem, budget: Budget, wide_ops: bool,
 
 
 def _same_run(a: dict, b: dict) -> bool:
-    keys = ("problem", "source", "seed", "ga", "wide_ops", "method")
-    return all(a.get(k) == b.get(k) for k in keys)
+    keys = ("problem", "source", "seed", "wide_ops", "method")
+    return all(a.get(k) == b.get(k) for k in keys) and _ga_spec(a) == _ga_spec(b)
+
+
+def _ga_spec(spec: dict):
+    """The GA settings of a run spec, fields a run written before they existed at their
+    defaults."""
+    ga = spec.get("ga")
+    return None if ga is None else {**asdict(GAConfig()), **ga}
 
 
 

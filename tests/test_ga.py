@@ -125,14 +125,14 @@ def _bowl_objectives(cands):
     return np.array(F)
 
 
-def _refining_ga(seed, refine_evals=300, refine_basis=0):
+def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise"):
     from descent_fmus.synthesis.methods.policy_search import Target
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
     psi[0, 3], psi[1, 3], psi[3, 4], psi[2, 4], psi[4, 5] = 1, 1, 1, 1, 1
     cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, refine_evals=refine_evals,
-                   refine_laws=2, refine_basis=refine_basis)
+                   refine_laws=2, refine_basis=refine_basis, basis_rule=basis_rule)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, target=Target(0, 1, 100.0))
 
@@ -187,7 +187,37 @@ def test_basis_refinement_comes_first_and_resumes():
     assert np.array_equal(b.F, c.F) and b.evaluations == c.evaluations
 
 
+def test_target_basis_rule_keeps_the_best_law_as_the_basis():
+    # basis_rule "target": at every epoch the best law by the target (lowest objective among
+    # those meeting the constraint) becomes the basis, member 0, which is never replaced -- so
+    # the best feasible objective of the population never worsens (the rule's definition)
+    g = _refining_ga(5, refine_evals=40, basis_rule="target")
+    new_basis, chosen = g._new_basis, []
+
+    def checked():
+        F = g.F
+        ok = np.flatnonzero(F[:, 1] < 100.0)
+        best = g.pop[int(ok[np.argmin(F[ok, 0])])] if len(ok) else None
+        law = None if best is None else g.matrix(best)       # relative to the old basis
+        members = new_basis()
+        if best is not None:
+            chosen.append(1)
+            assert np.array_equal(g.psi0, law) and np.array_equal(members[0].bits, best.bits)
+        return members
+    g._new_basis = checked
+    seen = []
+    g.run(_bowl_objectives, 9, callback=lambda ga: seen.append(
+        ga.F[ga.F[:, 1] < 100.0, 0].min() if (ga.F[:, 1] < 100.0).any() else np.inf))
+    assert len(chosen) >= 2
+    assert all(b <= a for a, b in zip(seen, seen[1:]))
+
+
 def test_refinement_needs_a_target():
     cfg = GAConfig(population=8, crossovers=2, lchr=0, refine_evals=10)
     with pytest.raises(ValueError, match="needs a target"):
         VariationalGA(GrayCodec(2), [1.0, 1.0], np.random.default_rng(1), cfg)
+    cfg = GAConfig(population=8, crossovers=2, lchr=0, basis_rule="target")
+    with pytest.raises(ValueError, match="needs a target"):
+        VariationalGA(GrayCodec(2), [1.0, 1.0], np.random.default_rng(1), cfg)
+    with pytest.raises(ValueError, match="basis_rule must be"):
+        GAConfig(basis_rule="best")

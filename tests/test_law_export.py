@@ -129,7 +129,8 @@ def test_synthesize_exports_laws_compactly(fmu_dir, tmp_path, capsys):
     out = tmp_path / "run"
     assert main(["synthesize", "reentry", "--population", "16", "--generations", "2",
                  "--crossovers", "4", "--lchr", "4", "--epoch", "2", "--seed", "3",
-                 "--flights", "60", "--workers", "1", "--quiet", "--no-reference", "--json",
+                 "--flights", "60", "--refine-basis", "0", "--workers", "1", "--quiet",
+                 "--no-reference", "--json",
                  "--out", str(out),
                  "--fmus", str(fmu_dir)]) == 0
     summary = json.loads(capsys.readouterr().out)

@@ -30,7 +30,7 @@ REENTRY = get_problem("reentry")
 def test_evaluator_equals_an_fmpy_run(fmu_dir):
     # the evaluator is built from FMU paths alone; its objectives equal a plain closed-loop run
     laws = [NetworkOperator.basic_law(), NetworkOperator.paper_law(),
-            get_problem("reentry").basic_law]
+            get_problem("reentry").basic()]
     with Evaluator(REENTRY, fmu_dir) as ev:
         F, extras = ev.evaluate(laws + laws)         # duplicates are not simulated twice
         assert ev.simulated == 3
@@ -102,7 +102,7 @@ def test_killed_cli_run_resumes(fmu_dir, tmp_path):
     args = [sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize", "reentry", "--population", "16",
             "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
             "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-reference",
-            "--refine-evals", "20", "--fmus", str(fmu_dir)]
+            "--refine-evals", "20", "--refine-basis", "0", "--fmus", str(fmu_dir)]
     ref = subprocess.run(args + ["--out", str(tmp_path / "ref")], cwd=ROOT,
                          capture_output=True, text=True)
     assert ref.returncode == 0, ref.stderr[-4000:]

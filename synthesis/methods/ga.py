@@ -165,8 +165,13 @@ class GAConfig:
                                 #: initial population, before the structure search (0 = off)
     refine_sigma: float = 0.3   #: initial CMA-ES step, relative to each parameter's size
     refine_popsize: int = 0     #: CMA-ES candidates per generation (0 = pycma's default)
+    basis_rule: str = "compromise"  #: the epoch's new basis: "compromise" (nearest the utopia
+                                    #: point, the lab's rule) or "target" (best by the target)
 
     def __post_init__(self):
+        if self.basis_rule not in ("compromise", "target"):
+            raise ValueError(f"basis_rule must be 'compromise' or 'target', got "
+                             f"{self.basis_rule!r}")
         if self.population < 4:
             raise ValueError(f"population must be >= 4, got {self.population}")
         if self.crossovers < 1:
@@ -210,8 +215,10 @@ class VariationalGA:
                  structure: StructureCodec | None = None, psi0=None, decode=None,
                  archive_max: int = 200, target=None):
         self.params, self.cfg, self.rng = params, config, rng
-        if (config.refine_evals or config.refine_basis) and target is None:
-            raise ValueError("parameter refinement (refine_evals > 0) needs a target")
+        if (config.refine_evals or config.refine_basis or config.basis_rule == "target") \
+                and target is None:
+            raise ValueError("parameter refinement (refine_evals > 0) or basis_rule 'target' "
+                             "needs a target")
         self.target = target
         self._refine = None           # the running CMA-ES refinements (see _start_refine)
         self._refine_due = False
@@ -431,8 +438,24 @@ class VariationalGA:
         d = np.sqrt((((F - lo) / span) ** 2).sum(axis=1))
         return int(idx[np.argmin(d)])
 
+    def _target_order(self) -> np.ndarray:
+        """Population indices, best by the target first: the members that meet the constraint
+        by their objective, then the others by the penalised scalar (a law just past the
+        constraint with a lower objective is not the best law)."""
+        F, t = self.F, self.target
+        feasible = t.feasible(F)
+        rank = np.where(feasible, F[:, t.objective], t.scalar(F))
+        return np.lexsort((rank, ~feasible))
+
     def _new_basis(self) -> list:
-        best = self.pop[self._best_compromise()]
+        # basis_rule "target": the best law by the target becomes the basis (member 0, never
+        # replaced), so the law the run reports stays in the population and its parameter
+        # search continues; "compromise": the member nearest the utopia point (the lab's rule,
+        # which drops the old basis even when it is the best law by the target)
+        k = int(self._target_order()[0]) \
+            if self.cfg.basis_rule == "target" and self.target is not None \
+            else self._best_compromise()
+        best = self.pop[k]
         self.psi0 = self.matrix(best)
         self.q0 = self.params.decode(best.bits)
         members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]
@@ -476,18 +499,16 @@ class VariationalGA:
     # -- parameter refinement by CMA-ES ----------------------------------------------------
     def _start_refine(self, basis: bool = False) -> None:
         """CMA-ES on the parameters of the best members by the target with distinct structures
-        (``refine_laws`` of them; the basis among them if it is one of the best),
+        (``refine_laws`` of them, feasible first; the basis among them if it is one of the best),
         ``refine_evals`` each; with ``basis``, on the basis (member 0 of the initial
         population) alone, ``refine_basis`` evaluations.  A structure refined before continues
         its CMA-ES (mean, step size and covariance kept: one long search per structure rather
-        than restarts); otherwise a new one starts at the member's q."""
+        than restarts); otherwise a copy of the latest search starts at the member's q."""
         if basis:
             picks, budget = [0], self.cfg.refine_basis
         else:
-            F = self.F
-            order = np.argsort(self.target.scalar(F), kind="stable")
             picks, seen = [], set()
-            for k in order:
+            for k in self._target_order():
                 if len(picks) >= self.cfg.refine_laws:
                     break
                 key = self._structure_key(self.pop[int(k)])

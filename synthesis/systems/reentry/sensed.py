@@ -338,7 +338,8 @@ PLAIN_CONTAINER = True
 #: workers); CMA-ES tunes the basic solution's parameters first (120 evaluations; its shape is
 #: already a good nominal law), then the GA with 80 evaluations of refinement per epoch.
 GUIDED_BUDGET = Budget(population=32, generations=60, crossovers=8, lchr=8, epoch=10, seed=1,
-                       refine_evals=80, refine_laws=1, refine_basis=120, flights=600)
+                       refine_evals=80, refine_laws=1, refine_basis=120, flights=600,
+                       basis_rule="target")
 
 
 def best_guided_row(rows):
