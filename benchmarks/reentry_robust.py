@@ -1,4 +1,4 @@
-"""Benchmark: the S1 robust problems (reentry-sensed, reentry-sensed-y12).
+"""Benchmark: the S1 robust problems (reentry-sensed, reentry-sensed-y12, reentry-guided).
 
 Prints
 
@@ -7,8 +7,9 @@ Prints
    (``synthesis.cosim.ClosedLoop``) for the same law over the 16 points of the synthesis set,
    as ratios of wall time and of CPU time (median of interleaved repetitions), for the law of
    y1, y2 (NetworkOperatorController, 3 connections) and the law reading y3
-   (SensedNetworkOperatorController, 8 connections: 7 to the controller, u back);
-2. evaluations/s of the robust problem (laws/s and flights/s) with 1 and 2 local workers on the
+   (SensedNetworkOperatorController, 8 connections: 7 to the controller, u back) and the guided
+   law (GuidedNetworkOperatorController, the same connections plus the on-board predictions);
+2. evaluations/s of one robust problem (``--problem``, default reentry-sensed) (laws/s and flights/s) with 1 and 2 local workers on the
    GA's first population, with racing (most of these random laws are stopped after the nominal
    flight, so a task is one short flight) and without racing (every law flies the whole set),
    and the 2-worker / 1-worker ratios;
@@ -16,7 +17,7 @@ Prints
    often as in the first population (low) or none (high).  A run's own log gives the real
    figure; later generations fly more of the set than the first.
 
-    python benchmarks/reentry_robust.py [--repeat N] [--fmus DIR] [--json]
+    python benchmarks/reentry_robust.py [--problem NAME] [--repeat N] [--fmus DIR] [--json]
 
 On a machine shared with other jobs the wall times spread widely; the CPU-time ratio of item 1
 is the robust number.
@@ -87,13 +88,17 @@ def evaluation_rate(problem, fmus: Path, workers: int) -> dict:
 def budget_laws(problem) -> int:
     b = problem.budget
     epochs = b.generations // b.epoch
-    return b.population + b.generations * 4 * b.crossovers + epochs * b.refine_laws * \
-        b.refine_evals
+    n = b.population + b.refine_basis + b.generations * 4 * b.crossovers + \
+        epochs * b.refine_laws * b.refine_evals
+    return min(n, b.flights) if b.flights else n
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=5)
+    ap.add_argument("--problem", default="reentry-sensed",
+                    help="problem of the evaluation rates (reentry-sensed, reentry-sensed-y12, "
+                         "reentry-guided)")
     ap.add_argument("--fmus", type=Path, default=fmu_dir())
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -101,7 +106,9 @@ def main(argv=None):
     out = {"container_vs_master": {}, "evaluations": {}}
     for name, pb in problems.items():
         out["container_vs_master"][name] = container_vs_master(pb, args.fmus, args.repeat)
-    pb = problems["reentry-sensed"]
+    if args.problem not in problems:
+        raise SystemExit(f"unknown problem {args.problem!r}; choose from {', '.join(problems)}")
+    pb = problems[args.problem]
     for w in (1, 2):
         out["evaluations"][f"{w} worker(s)"] = evaluation_rate(pb, args.fmus, w)
     # the same laws without racing: every law flies the whole set
@@ -127,7 +134,7 @@ def main(argv=None):
               f"{r['master_ms_per_flight']:.1f} ms/flight, container "
               f"{r['container_ms_per_flight']:.1f} ms/flight; speed-up "
               f"wall {r['speedup_wall']:.2f}x, CPU {r['speedup_cpu']:.2f}x")
-    print("evaluations of reentry-sensed (GA's first population)")
+    print(f"evaluations of {pb.name} (GA's first population)")
     for k, r in out["evaluations"].items():
         print(f"  {k}: {r['laws_per_s']:.2f} laws/s, {r['flights_per_s']:.1f} flights/s "
               f"({r['laws']} laws, {r['raced_out']} raced out)")

@@ -157,3 +157,14 @@ def test_exported_guided_closed_loop_reproduces_the_evaluators_flights(fmu_dir, 
         for name in ("L", "load_max", "status"):
             assert res[-1][name] == pytest.approx(ref[k][name], rel=1e-12)
     fmu.freeInstance()
+
+
+def test_committed_guided_law_lands_the_nominal_flight(fmu_dir):
+    # the law the built ReentryGuidedClosedLoop.fmu carries (docs/make_reentry_robust_figures.py
+    # picks it from the default reentry-guided run): a guided law, nominal flight within 100 m
+    # (the guidance acceptance)
+    assert sensed.GUIDED_LAW_FILE.exists()
+    law = sensed.default_guided_law()
+    assert sensed.reads_correction(law)
+    (row,) = fly_law(law, [P0], fmu_dir)
+    assert row["landed"] and row["J2"] < 100.0
