@@ -438,6 +438,9 @@ def plot_front(problem, rows, summary, path: Path) -> None:
     ax.set_ylabel(problem.labels[1])
     ax.set_yscale("symlog", linthresh=max(1e-9, float(np.min(np.abs(f2[ok])))
                   if ok.any() and np.min(np.abs(f2[ok])) > 0 else 1.0))
-    ax.legend()
+    if ok.any() and np.min(f2[ok]) >= 0 and b[names[1]] >= 0:
+        ax.set_ylim(bottom=0)            # a non-negative objective: no empty negative decades
+        ax.set_ylim(top=10 ** (np.log10(max(np.max(f2[ok]), b[names[1]], 1e-9)) + 0.5))
+    ax.legend(loc="center right")
     ax.set_title(f"{problem.name}: Pareto front ({len(rows)} laws)")
     save_figure(fig, path, [ax], dpi=110)
