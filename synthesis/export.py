@@ -12,6 +12,7 @@
 """
 from __future__ import annotations
 
+import functools
 import json
 import shutil
 import tempfile
@@ -108,27 +109,36 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
     return add_status_wrapper(add_units(fmu))
 
 
-_STATUS_LIBRARY: list = []       # the compiled status wrapper of this process (bytes or None)
-
-
+@functools.cache
 def _status_library() -> bytes | None:
     """The status wrapper (``synthesis/native/c/pythonfmu_status.c``) compiled for this
-    machine, or None where it cannot be (no C compiler, not linux64)."""
-    if not _STATUS_LIBRARY:
-        from descent_fmus.synthesis.native.build import (NativeBuildError, compile_sources,
-                                                         find_compiler, platform_folder)
-        lib = None
-        try:
-            if platform_folder() == ("linux64", ".so") and find_compiler() is not None:
-                with tempfile.TemporaryDirectory(prefix="descent_status_") as tmp:
-                    out = compile_sources(Path(__file__).parent / "native" / "c",
-                                          ["pythonfmu_status.c"], Path(tmp) / "wrapper.so",
-                                          libraries=("dl",))
-                    lib = out.read_bytes()
-        except NativeBuildError:
-            lib = None
-        _STATUS_LIBRARY.append(lib)
-    return _STATUS_LIBRARY[0]
+    machine (once per process), or None where it cannot be (no C compiler, not linux64)."""
+    from descent_fmus.synthesis.native.build import (NativeBuildError, compile_sources,
+                                                     find_compiler, platform_folder)
+    if platform_folder() != ("linux64", ".so") or find_compiler() is None:
+        return None
+    try:
+        with tempfile.TemporaryDirectory(prefix="descent_status_") as tmp:
+            return compile_sources(Path(__file__).parent / "native" / "c",
+                                   ["pythonfmu_status.c"], Path(tmp) / "wrapper.so",
+                                   libraries=("dl",)).read_bytes()
+    except NativeBuildError:
+        return None
+
+
+def _rewrite_archive(src: Path, dst: Path, edit, extra=()) -> Path:
+    """Copy the zip archive ``src`` to ``dst`` (atomically; ``dst`` may be ``src``), every
+    entry through ``edit(item, data)``, which returns the ``(ZipInfo or name, bytes)`` pairs to
+    write in its place (none: the entry is dropped); ``extra`` pairs are appended."""
+    tmp = dst.with_suffix(".fmu.tmp")
+    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
+        for item in zin.infolist():
+            for info, data in edit(item, zin.read(item.filename)):
+                zout.writestr(info, data)
+        for info, data in extra:
+            zout.writestr(info, data)
+    tmp.replace(dst)
+    return dst
 
 
 def add_status_wrapper(fmu: Path) -> Path:
@@ -144,42 +154,31 @@ def add_status_wrapper(fmu: Path) -> Path:
     if lib is None:
         return fmu
     fmu = Path(fmu)
-    tmp = fmu.with_suffix(".fmu.tmp")
-    with zipfile.ZipFile(fmu) as zin:
-        ident = ET.fromstring(zin.read("modelDescription.xml")).find(
+    with zipfile.ZipFile(fmu) as z:
+        ident = ET.fromstring(z.read("modelDescription.xml")).find(
             "CoSimulation").get("modelIdentifier")
         binary = f"binaries/linux64/{ident}.so"
-        if binary not in zin.namelist():
+        if binary not in z.namelist():
             return fmu
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-            for item in zin.infolist():
-                data = zin.read(item.filename)
-                if item.filename == binary:
-                    item.filename = f"binaries/linux64/{ident}.pythonfmu.so"
-                    zout.writestr(item, data)
-                    wrapper = zipfile.ZipInfo(binary, date_time=item.date_time)
-                    wrapper.external_attr = item.external_attr
-                    wrapper.compress_type = zipfile.ZIP_DEFLATED
-                    zout.writestr(wrapper, lib)
-                else:
-                    zout.writestr(item, data)
-    tmp.replace(fmu)
-    return fmu
+
+    def edit(item, data):
+        if item.filename != binary:
+            return [(item, data)]
+        wrapper = zipfile.ZipInfo(binary, date_time=item.date_time)
+        wrapper.external_attr, wrapper.compress_type = item.external_attr, zipfile.ZIP_DEFLATED
+        item.filename = f"binaries/linux64/{ident}.pythonfmu.so"
+        return [(item, data), (wrapper, lib)]
+    return _rewrite_archive(fmu, fmu, edit)
 
 
 def _rewrite_model_description(fmu: Path, edit) -> Path:
     """Apply ``edit(root)`` to the modelDescription.xml of ``fmu`` (in place, atomically)."""
-    tmp = fmu.with_suffix(".fmu.tmp")
-    with zipfile.ZipFile(fmu) as zin:
-        root = ET.fromstring(zin.read("modelDescription.xml"))
-        edit(root)
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-            for item in zin.infolist():
-                data = (ET.tostring(root, encoding="UTF-8", xml_declaration=True)
-                        if item.filename == "modelDescription.xml" else zin.read(item.filename))
-                zout.writestr(item, data)
-    tmp.replace(fmu)
-    return fmu
+    with zipfile.ZipFile(fmu) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    edit(root)
+    xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+    return _rewrite_archive(fmu, fmu, lambda item, data: [
+        (item, xml if item.filename == "modelDescription.xml" else data)])
 
 
 def add_units(fmu: Path) -> Path:
@@ -214,28 +213,23 @@ def with_defaults(src_fmu: Path, dst_fmu: Path, values: dict, description: str |
     for name, value in values.items():
         v = known[name]
         clean[name] = int(value) if v.type == "Integer" else float(value)
-    with zipfile.ZipFile(src_fmu) as zin:
-        xml = zin.read("modelDescription.xml")
-        root = ET.fromstring(xml)
-        for sv in root.iter("ScalarVariable"):
-            name = sv.get("name")
-            if name in clean:
-                sv[0].set("start", _start_literal(clean[name]))
-        if description:
-            root.set("description", description)
-        dst_fmu.parent.mkdir(parents=True, exist_ok=True)
-        tmp = dst_fmu.with_suffix(".fmu.tmp")
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-            for item in zin.infolist():
-                if item.filename == "modelDescription.xml":
-                    zout.writestr(item, ET.tostring(root, encoding="UTF-8", xml_declaration=True))
-                elif item.filename == "resources/defaults.json":
-                    continue
-                else:
-                    zout.writestr(item, zin.read(item.filename))
-            zout.writestr("resources/defaults.json", json.dumps(clean, indent=1))
-    tmp.replace(dst_fmu)
-    return dst_fmu
+    with zipfile.ZipFile(src_fmu) as z:
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    for sv in root.iter("ScalarVariable"):
+        name = sv.get("name")
+        if name in clean:
+            sv[0].set("start", _start_literal(clean[name]))
+    if description:
+        root.set("description", description)
+    xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+    def edit(item, data):
+        if item.filename == "resources/defaults.json":
+            return []
+        return [(item, xml if item.filename == "modelDescription.xml" else data)]
+    dst_fmu.parent.mkdir(parents=True, exist_ok=True)
+    return _rewrite_archive(src_fmu, dst_fmu, edit,
+                            extra=[("resources/defaults.json", json.dumps(clean, indent=1))])
 
 
 def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path,
@@ -366,24 +360,18 @@ def refine_container(src_fmu: Path, dst_fmu: Path, step: float) -> Path:
     if md.coSimulation is None or md.coSimulation.modelIdentifier != "container_fmu":
         raise ValueError(f"{src_fmu} is not a closed-loop container FMU (fmpy container)")
     names = {v.name for v in md.modelVariables}
-    with zipfile.ZipFile(src_fmu) as zin:
-        config = json.loads(zin.read("resources/container.json"))
-        feedback = len({c["srcComponent"] for c in config["connections"]}) > 1
-        if feedback and "sample_period" not in names:
-            raise ValueError(f"{src_fmu.name} has no parameter sample_period: its controller "
-                             f"would act at every internal step; rebuild it (python "
-                             f"build_fmus.py) and refine the new one")
-        config["fixedStepSize"] = step
-        dst_fmu.parent.mkdir(parents=True, exist_ok=True)
-        tmp = dst_fmu.with_suffix(".fmu.tmp")
-        with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-            for item in zin.infolist():
-                data = (json.dumps(config, indent=4).encode()
-                        if item.filename == "resources/container.json"
-                        else zin.read(item.filename))
-                zout.writestr(item, data)
-    tmp.replace(dst_fmu)
-    return dst_fmu
+    with zipfile.ZipFile(src_fmu) as z:
+        config = json.loads(z.read("resources/container.json"))
+    feedback = len({c["srcComponent"] for c in config["connections"]}) > 1
+    if feedback and "sample_period" not in names:
+        raise ValueError(f"{src_fmu.name} has no parameter sample_period: its controller "
+                         f"would act at every internal step; rebuild it (python "
+                         f"build_fmus.py) and refine the new one")
+    config["fixedStepSize"] = step
+    text = json.dumps(config, indent=4).encode()
+    dst_fmu.parent.mkdir(parents=True, exist_ok=True)
+    return _rewrite_archive(src_fmu, dst_fmu, lambda item, data: [
+        (item, text if item.filename == "resources/container.json" else data)])
 
 
 _SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"

@@ -240,9 +240,7 @@ class PolicySearch:
                  restart_sigma: float = IPOP_SIGMA, restart_stall: int = IPOP_STALL):
         self.structure = structure
         self.target = target
-        self.scale = (np.maximum(np.abs(np.asarray(structure.q, float)), scale_floor)
-                      if scale is None else np.asarray(scale, float))
-        self.cma = CMA(structure.q, sigma, seed, self.scale, popsize, bounds, scale_floor,
+        self.cma = CMA(structure.q, sigma, seed, scale, popsize, bounds, scale_floor,
                        restart_sigma=restart_sigma, restart_stall=restart_stall)
         self.evaluations = 0
         self.generations = 0
