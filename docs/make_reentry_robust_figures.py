@@ -16,10 +16,11 @@ blind and the oracle bound.  Writes
 * ``synthesis/systems/reentry/sensed_law.json`` -- the robust law (the default law of the built
   ``ReentrySensedClosedLoop.fmu``; the tests fly it);
 * ``synthesis/systems/reentry/guided_law.json`` -- the guided law (the default law of
-  ``ReentryGuidedClosedLoop.fmu``), with ``--guided``.
+  ``ReentryGuidedClosedLoop.fmu``), with ``--guided``; the guided law is also flown with the
+  load gate ``--gate`` (``correction_gate``).
 
     python docs/make_reentry_robust_figures.py SENSED_RUN Y12_RUN [--cma CMA_RUN]
-        [--guided GUIDED_RUN] [--samples 200] [--seed 7] [--fmus DIR] [--programs DIR]
+        [--guided GUIDED_RUN] [--gate 20] [--samples 200] [--seed 7] [--fmus DIR] [--programs DIR]
 """
 from __future__ import annotations
 
@@ -39,6 +40,8 @@ from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_stu
                                                                   robust_study, table_lines)
 
 DOCS = ROOT / "docs"
+#: The load gate of the guided law's extra row [choice] (models/README.md, "S1 load gate").
+GATE = 20.0
 
 
 def best_law(run: Path) -> tuple[NetworkOperator, dict]:
@@ -64,6 +67,9 @@ def main(argv=None):
     ap.add_argument("y12_run", type=Path)
     ap.add_argument("--cma", type=Path, help="run of --method cma-polynomial")
     ap.add_argument("--guided", type=Path, help="run of synthesize reentry-guided")
+    ap.add_argument("--gate", type=float, default=GATE, metavar="G",
+                    help=f"load gate [g] of the guided law's extra row (default {GATE:g}; "
+                         "0 = no extra row)")
     ap.add_argument("--samples", type=int, default=200)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--fmus", type=Path, default=fmu_dir())
@@ -85,6 +91,9 @@ def main(argv=None):
         law, rows["guided"] = best_guided_law(args.guided)
         law.save(sensed.GUIDED_LAW_FILE)
         laws["synthesised guided law (y1 y2 y3 c + correction)"] = law
+        if args.gate > 0.0:
+            laws[f"synthesised guided law, load gate {args.gate:g} g"] = \
+                (law, {"correction_gate": args.gate})
     nominal = NetworkOperator.load(sensed.NOMINAL_LAW_FILE)
     laws["nominal synthesised law"] = nominal
     laws["nominal synthesised law + correction c"] = sensed.as_guided(nominal)

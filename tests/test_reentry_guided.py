@@ -13,8 +13,8 @@ import math
 import pytest
 from scipy.integrate import solve_ivp
 
-from descent_fmus.models.controllers.reentry_npc import predict_range
-from descent_fmus.models.reentry import ReentryParams, deviations, initial_state
+from descent_fmus.models.controllers.reentry_npc import gate_weight, predict_range
+from descent_fmus.models.reentry import ReentryParams, deviations, initial_state, loads, rhs
 from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
 from descent_fmus.synthesis.methods.network_operator import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem
@@ -93,6 +93,7 @@ def test_guided_law_lands_the_nominal_and_a_reachable_dispersed_flight(fmu_dir):
     ({"correction_input": 3}, "correction_input and estimate_input must differ"),
     ({"correction_max": -0.1}, "correction_max must be > 0"),
     ({"cycle": 0.0}, "cycle must be > 0"),
+    ({"correction_gate": -1.0}, "correction_gate must be >= 0"),
 ])
 def test_guided_controller_rejects_bad_parameters(fmu_dir, bad, message):
     values = dict(sensed.guided_basic_law().start_values(), **bad)
@@ -123,7 +124,8 @@ def test_guided_cli_bad_input_is_a_one_line_error(tmp_path, capsys):
     NetworkOperator.linear([[1.0, 1.0, 1.0, 1.0, 1.0]]).save(law)
     for argv in (["reentry", "robustness", "--guided", str(law)],
                  ["synthesize", "reentry-guided", "--statistic", "p99"],
-                 ["synthesize", "reentry", "--statistic", "median"]):
+                 ["synthesize", "reentry", "--statistic", "median"],
+                 ["reentry", "robustness", "--law", str(law), "--gate", "-1"]):
         assert main(argv + ["--out", str(tmp_path / "o")] if argv[0] == "synthesize"
                     else argv) == 2
         err = capsys.readouterr().err
@@ -168,3 +170,53 @@ def test_committed_guided_law_lands_the_nominal_flight(fmu_dir):
     assert sensed.reads_correction(law)
     (row,) = fly_law(law, [P0], fmu_dir)
     assert row["landed"] and row["J2"] < 100.0
+
+
+def test_gate_weight_closed_form():
+    # closed form (1 - n/G)^2 for a braking c > 0 below the gate, 0 above, 1 otherwise; n is the
+    # plant's own aero_load at u = 0 (models.reentry.loads, a separate function)
+    x = initial_state(P0)
+    x = (x[0], x[1], x[2] - 60_000.0, x[3])               # 40 km up at entry speed
+    gm, kd, lam, rz = P0.constants()
+    _, n = loads(x, rhs(x, 0.0, gm, kd, lam, rz), kd, lam, rz, P0.g0, 0.0)
+    assert 1.0 < n < 100.0
+    assert gate_weight(x, 0.1, 2.0 * n, kd, P0) == pytest.approx(0.25, rel=1e-12)
+    assert gate_weight(x, 0.1, 4.0 * n, kd, P0) == pytest.approx(0.5625, rel=1e-12)
+    assert gate_weight(x, 0.1, 0.99 * n, kd, P0) == 0.0
+    assert gate_weight(x, -0.1, 2.0 * n, kd, P0) == 1.0      # less drag is never gated
+    assert gate_weight(x, 0.1, 0.0, kd, P0) == 1.0           # no gate
+
+
+def test_load_gate_brakes_where_the_load_has_slack(fmu_dir):
+    # a sample that needs braking (V0 + 30 m/s: too long) inside the reachable interval (the
+    # oracle lands it exactly): with the gate the guidance still lands it within 1 km and the
+    # peak load is lower than with the ungated correction, which brakes at the peak too
+    # (measured 8.59 against 9.02); the nominal flight stays within 100 m (guidance acceptance)
+    p = P0.with_(V0=P0.V0 + 30.0)
+    assert oracle_bound(p).exact
+    law = sensed.default_guided_law()
+    free_nominal, free = fly_law(law, [P0, p], fmu_dir)
+    gated_nominal, gated = fly_law(law, [P0, p], fmu_dir, guidance={"correction_gate": 16.0})
+    assert gated_nominal["landed"] and gated_nominal["J2"] < 100.0
+    assert gated["landed"] and gated["J2"] < 1000.0
+    assert free["landed"] and free["J2"] < 1000.0
+    assert gated["J1"] < free["J1"] - 0.3
+    with pytest.raises(ValueError, match="need a law that reads the correction c"):
+        fly_law(NOMINAL, [P0], fmu_dir, guidance={"correction_gate": 16.0})
+
+
+def test_closed_loop_fmu_exposes_the_load_gate(fmu_dir):
+    # the built ReentryGuidedClosedLoop.fmu (the committed guided law as its default) under
+    # fmpy simulate with the start value correction_gate: the same flight as the evaluator's
+    # Python master with that controller parameter (V0 + 30 m/s, a sample that needs braking)
+    from fmpy import simulate_fmu
+
+    from descent_fmus.models.reentry import T_PLUS
+    p = P0.with_(V0=P0.V0 + 30.0)
+    (ref,) = fly_law(sensed.default_guided_law(), [p], fmu_dir,
+                     guidance={"correction_gate": 20.0})
+    res = simulate_fmu(str(fmu_dir / "ReentryGuidedClosedLoop.fmu"),
+                       start_values={"V0": p.V0, "correction_gate": 20.0}, step_size=T_PLUS,
+                       output_interval=T_PLUS, output=["L", "load_max", "status"])
+    assert res[-1]["load_max"] == pytest.approx(ref["J1"], rel=1e-12)
+    assert abs(res[-1]["L"] - p.Lf) == pytest.approx(ref["J2"], rel=1e-9, abs=1e-6)

@@ -32,8 +32,8 @@ from descent_fmus.models.params import ParameterError, param
 from descent_fmus.models.reentry import (T_PLUS, U_BOUNDS, ReentryParams, altitude, deviations,
                                          downrange, rhs)
 
-__all__ = ["NPCParams", "GuidedParams", "predict_range", "solve_control", "ReentryNPC",
-           "GuidedNetworkOperatorController"]
+__all__ = ["NPCParams", "GuidedParams", "gate_weight", "predict_range", "solve_control",
+           "ReentryNPC", "GuidedNetworkOperatorController"]
 
 #: Prediction horizon beyond the current time [s] (a flight that has not reached hf by then
 #: counts as flying too far).
@@ -64,6 +64,29 @@ class GuidedParams(NPCParams):
                                    "clipped output: u = clip(phi + g c)")
     h0_line: float = param(100_000.0, "m", "entry altitude of the straight line y1, y2 refer "
                            "to (the plant's h0)", positive=True)
+    correction_gate: float = param(0.0, "1", "load gate G [g] of a braking correction: c > 0 "
+                                   "enters with the weight (1 - n/G)^2 below the drag load n = G "
+                                   "and not above it (0 = no gate)")
+
+    def check(self) -> None:
+        super().check()
+        if self.correction_gate < 0.0:
+            raise ParameterError(f"parameter correction_gate must be >= 0 g (0 = no gate), got "
+                                 f"{self.correction_gate}")
+
+
+def gate_weight(x, c: float, gate: float, kd: float, model: ReentryParams) -> float:
+    """Weight of the correction ``c`` at the state ``x``: 1 without a gate (``gate`` = 0) or for
+    c <= 0 (less drag); for a braking c > 0, ``(1 - n/gate)^2`` while the drag load n is below
+    ``gate`` [g] and 0 above it, n = kd v^2 exp(-lam h) / g0 the drag load of the model with the
+    drag factor ``kd`` [1/m] at u = 0.  Braking thus goes where the load has slack (high up
+    before the peak, low down after it) instead of raising the peak."""
+    if gate <= 0.0 or c <= 0.0:
+        return 1.0
+    _, _, lam, rz = model.constants()
+    n = kd * (x[1] * x[1] + x[3] * x[3]) * math.exp(-lam * (math.hypot(x[0], x[2]) - rz)) \
+        / model.g0
+    return (1.0 - n / gate) ** 2 if n < gate else 0.0
 
 
 def predict_range(x, u, kd: float, model: ReentryParams = ReentryParams(),
@@ -206,7 +229,9 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
     (the law reads the drag-factor estimate y3 at ``x[estimate_input]``), plus the correction c:
     added with gain ``correction_gain`` g to the law's clipped output (then clipped again to the
     same bounds), and read by the law at ``x[correction_input]`` (default 4; 0, or an input the
-    law does not have: not read).  Every ``cycle`` seconds the controller predicts the flight to
+    law does not have: not read).  With a load gate ``correction_gate`` G > 0 a braking c > 0
+    enters with the weight of :func:`gate_weight` (none at drag loads above G), in the flight
+    and in the prediction alike.  Every ``cycle`` seconds the controller predicts the flight to
     hf with the nominal model, the estimated drag factor and *this guidance itself* (y1, y2 of
     the predicted state, y3 held, c constant; RK4 steps of ``dt_pred``, the control held over
     each) and solves for the c in [-correction_max, correction_max] whose predicted down-range
@@ -268,7 +293,9 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
                 self.x[self.correction_input - 1] = self._c
             u = super()._outputs()
             if self.correction_gain:
-                u[0] = self._corrected(u[0], self._c)
+                x = self.nav_state()
+                kd = self._kd * math.exp(self.current_estimate())
+                u[0] = self._corrected(u[0], self._c, x, kd)
             return u
         return super()._outputs()
 
@@ -278,9 +305,12 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
     def _active(self) -> bool:
         return self._reads_c() or self.correction_gain != 0.0
 
-    def _corrected(self, u: float, c: float) -> float:
-        """The law's clipped output plus g c, clipped to the same bounds."""
-        v = u + self.correction_gain * c
+    def _corrected(self, u: float, c: float, x, kd: float) -> float:
+        """The law's clipped output plus g w c (w: :func:`gate_weight` at the state ``x`` with
+        the drag factor ``kd``), clipped to the same bounds."""
+        w = gate_weight(x, c, self.correction_gate, kd, self._model) if self.correction_gate \
+            else 1.0
+        v = u + self.correction_gain * w * c
         return self.u_lo[0] if v < self.u_lo[0] else (self.u_hi[0] if v > self.u_hi[0] else v)
 
     def _correct(self, x) -> None:
@@ -299,7 +329,7 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
             def control(xp):
                 inputs[0], inputs[1] = deviations(xp, line)
                 u = law(inputs)[0]
-                return corrected(u, c) if gain else u
+                return corrected(u, c, xp, kd) if gain else u
             return predict_range(x, control, kd, self._model, self.dt_pred) - self._model.Lf
 
         bound = self.correction_max

@@ -56,6 +56,12 @@ def add_commands(sub) -> None:
                         "predictor-corrector correction c added (GuidedNetworkOperatorController;"
                         " repeatable); a law of reentry-guided (inputs y1, y2, y3, c) does so "
                         "with --law already")
+    r.add_argument("--gate", type=finite_float, action="append", default=[],
+                   metavar="G",
+                   help="load gate [g] of the correction's braking (correction_gate): c > 0 "
+                        "enters with the weight (1 - n/G)^2 below the drag load n = G, not "
+                        "above it; 0 = no gate (the default).  Repeatable: every law with the "
+                        "correction flies once per gate")
     r.add_argument("--program", type=Path, help="open-loop program JSON of the default scenario "
                    "(reentry bound --out), flown blind")
     r.add_argument("--program-second", type=Path, metavar="FILE",
@@ -134,8 +140,11 @@ def run_robustness(args) -> int:
     from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
                                                                       robust_study, table_lines)
 
-    from descent_fmus.synthesis.systems.reentry.sensed import as_guided
+    from descent_fmus.synthesis.systems.reentry.sensed import as_guided, reads_correction
 
+    bad = [g for g in args.gate if g < 0.0]
+    if bad:
+        raise CliError(f"--gate must be >= 0 g (0 = no gate), got {bad[0]:g}")
     laws = {}
     for path, guided in [(p, False) for p in args.law] + [(p, True) for p in args.guided]:
         name = Path(path).stem if Path(path).name != "law.json" else str(Path(path).parent)
@@ -145,7 +154,12 @@ def run_robustness(args) -> int:
                 law, name = as_guided(law), f"{name} + correction c"
         except (OSError, LawFileError, ValueError) as exc:
             raise CliError(f"cannot read law {path}: {exc}") from None
-        laws[name] = law
+        if not reads_correction(law):
+            laws[name] = law
+            continue
+        for gate in args.gate or [0.0]:
+            laws[f"{name}, gate {gate:g} g" if gate else name] = \
+                (law, {"correction_gate": gate}) if gate else law
     programs = {}
     for scenario, path in (("default", args.program), ("second", args.program_second)):
         if path:

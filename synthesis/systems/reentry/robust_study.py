@@ -95,14 +95,19 @@ def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise
 
 
 def fly_law(law: NetworkOperator, params, fmu_dir, noise: float = 0.0, bias: float = 0.0,
-            seed: int = 0) -> list:
+            seed: int = 0, guidance: dict | None = None) -> list:
     """Objectives of ``law`` on every sample (the guided wiring if the law reads the on-board
-    correction c, the sensed wiring if it reads y3)."""
+    correction c, with the controller parameters ``guidance`` (e.g. ``correction_gate``) over
+    the law's own; the sensed wiring if it reads y3)."""
     fmu_dir = Path(fmu_dir)
     if sensed.reads_correction(law):
         return _fly_loop(sensed.GUIDED_WIRING, fmu_dir, "Reentry.fmu",
-                         "GuidedNetworkOperatorController.fmu", params, law.start_values(),
-                         noise, bias, seed, per_sample=lambda p: {"h0_line": p.h0})
+                         "GuidedNetworkOperatorController.fmu", params,
+                         {**law.start_values(), **(guidance or {})}, noise, bias, seed,
+                         per_sample=lambda p: {"h0_line": p.h0})
+    if guidance:
+        raise ValueError(f"guidance parameters {sorted(guidance)} need a law that reads the "
+                         f"correction c")
     if sensed.reads_estimate(law):
         return _fly_loop(sensed.SENSED_WIRING, fmu_dir, "Reentry.fmu",
                          "SensedNetworkOperatorController.fmu", params, law.start_values(),
@@ -118,11 +123,17 @@ def fly_npc(params, fmu_dir, noise: float = 0.0, bias: float = 0.0, seed: int = 
                      controller_values or {}, noise, bias, seed)
 
 
+def _with_guidance(option):
+    """``(law, guidance parameters)`` of a guidance option: a law, or a pair of both."""
+    return (option[0], option[1]) if isinstance(option, tuple) else (option, None)
+
+
 def robust_study(laws: dict, samples: int, seed: int, fmu_dir, scenarios=("default",),
                  programs: dict | None = None, npc: bool = True, oracle: bool = True,
                  noise: float = 0.0, bias: float = 0.0) -> dict:
     """Fly every guidance option over the held-out set of each scenario (see the module
-    docstring).  ``programs`` maps a scenario to its open-loop program (flown blind) or None.
+    docstring).  ``laws`` maps a name to a law, or to a pair (law, guidance parameters of its
+    controller, e.g. ``{"correction_gate": 12.0}``).  ``programs`` maps a scenario to its open-loop program (flown blind) or None.
 
     Returns ``{"samples", "seed", "disjoint", "scenarios": {name: {"params", "results",
     "nominal", "stats", "oracle"}}}``; ``nominal`` holds each option's nominal flight."""
@@ -147,8 +158,10 @@ def robust_study(laws: dict, samples: int, seed: int, fmu_dir, scenarios=("defau
         params = held_out_samples(samples, seed, base)
         disjoint &= disjoint_from_synthesis(params)
         every = [base] + params                     # the nominal flight first, reported apart
-        results = {n: fly_law(law, every, fmu_dir, noise, bias, seed)
-                   for n, law in options.items()}
+        results = {}
+        for n, option in options.items():
+            law, guidance = _with_guidance(option)
+            results[n] = fly_law(law, every, fmu_dir, noise, bias, seed, guidance)
         if npc:
             results[NPC] = fly_npc(every, fmu_dir, noise, bias, seed)
         prog = (programs or {}).get(name)

@@ -97,7 +97,9 @@ _PLANT_PARAMETERS = tuple((n, "plant", n) for n in ("V0", "h0", "beta0", "m", "r
 _SENSING = tuple((n, "controller", n) for n in ("threshold", "noise", "bias", "noise_seed"))
 SENSED_LOOP_PARAMETERS = _PLANT_PARAMETERS + _SENSING
 NPC_LOOP_PARAMETERS = _PLANT_PARAMETERS + _SENSING + (("cycle", "controller", "cycle"),)
-GUIDED_LOOP_PARAMETERS = NPC_LOOP_PARAMETERS + (("h0_line", "controller", "h0_line"),)
+GUIDED_LOOP_PARAMETERS = NPC_LOOP_PARAMETERS + (("h0_line", "controller", "h0_line"),
+                                                 ("correction_gate", "controller",
+                                                  "correction_gate"))
 
 #: The synthesis set [choice]: the nominal flight + 15 uniform samples of the dispersion set,
 #: seed 1 (the held-out study draws other uniform samples, seed 7, without the nominal point).
