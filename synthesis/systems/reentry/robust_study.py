@@ -19,6 +19,7 @@ and the J1 boxplots.
 from __future__ import annotations
 
 import math
+import textwrap
 from dataclasses import asdict
 from pathlib import Path
 
@@ -228,7 +229,7 @@ def plot_robust_study(study: dict, path) -> Path:
 
     from descent_fmus.synthesis.plotting import save_figure
     scen = list(study["scenarios"])
-    fig, axes = plt.subplots(len(scen), 2, figsize=(13, 4.6 * len(scen)), squeeze=False)
+    fig, axes = plt.subplots(len(scen), 2, figsize=(15, 5.2 * len(scen)), squeeze=False)
     for row, name in zip(axes, scen):
         sc = study["scenarios"][name]
         ax = row[0]
@@ -239,15 +240,15 @@ def plot_robust_study(study: dict, path) -> Path:
             m = np.sort(np.asarray(miss, float)) / 1e3
             y = np.arange(1, len(m) + 1) / len(m)
             style = dict(color="k", lw=2.2, ls="--") if g == ORACLE else dict(lw=1.6)
-            ax.step(m, y, where="post", label=g[:40], **style)
+            ax.step(m, y, where="post", label=g[:52], **style)
         ax.set_xscale("symlog", linthresh=0.1)
         ax.set(xlabel="miss |L(tf) - Lf| [km]", ylabel="share of samples",
                title=f"{name} scenario: miss CDF ({len(sc['params'])} held-out samples)")
         ax.axvline(1.0, color="0.6", lw=0.8)
-        ax.legend(fontsize=8, loc="lower right")
+        ax.legend(fontsize=7, loc="lower right")
         names = list(sc["results"])
         j1 = [np.array([r["J1"] for r in sc["results"][g]]) for g in names]
-        row[1].boxplot(j1, tick_labels=[g[:22] for g in names])
+        row[1].boxplot(j1, tick_labels=[textwrap.fill(g, 14) for g in names])
         row[1].set(ylabel="J1 (max load)", title=f"{name} scenario: J1")
-        row[1].tick_params(axis="x", labelrotation=20)
+        row[1].tick_params(axis="x", labelsize=7)
     return save_figure(fig, path, list(axes.ravel()), dpi=100)
