@@ -125,7 +125,9 @@ def test_guided_cli_bad_input_is_a_one_line_error(tmp_path, capsys):
     for argv in (["reentry", "robustness", "--guided", str(law)],
                  ["synthesize", "reentry-guided", "--statistic", "p99"],
                  ["synthesize", "reentry", "--statistic", "median"],
-                 ["reentry", "robustness", "--law", str(law), "--gate", "-1"]):
+                 ["reentry", "robustness", "--law", str(law), "--gate", "-1"],
+                 ["reentry", "robustness", "--law", str(sensed.NOMINAL_LAW_FILE),
+                  "--gate", "20"]):
         assert main(argv + ["--out", str(tmp_path / "o")] if argv[0] == "synthesize"
                     else argv) == 2
         err = capsys.readouterr().err

@@ -160,6 +160,9 @@ def run_robustness(args) -> int:
         for gate in args.gate or [0.0]:
             laws[f"{name}, gate {gate:g} g" if gate else name] = \
                 (law, {"correction_gate": gate}) if gate else law
+    if args.gate and not any(isinstance(v, tuple) or reads_correction(v) for v in laws.values()):
+        raise CliError("--gate applies to laws flown with the correction c (--guided LAW, or a "
+                       "law of reentry-guided); none was given")
     programs = {}
     for scenario, path in (("default", args.program), ("second", args.program_second)):
         if path:
