@@ -5,7 +5,8 @@ For every method (``network-operator``, ``cma-basic``, ``cma-polynomial``, ``cma
 seed, one ``synthesize reentry`` run through the FMUs (the same evaluator) up to the largest
 mark; prints the best J1 with miss < 1 km after each mark of flights (simulated closed loops),
 its ratio to the bound (the best 1 s program at miss <= 1 km), and writes the learning curves
-as a PNG.  Runs are kept in ``--out`` and resumed/reused when the script is run again.
+as a PNG.  Runs are kept in ``--out`` and reused when the script is run again; a run that
+stopped short of the largest mark (interrupted, or run for smaller marks) is resumed to it.
 
     python benchmarks/reentry_search.py                       # 3 seeds x 4 methods, 81k flights
     python benchmarks/reentry_search.py --marks 10000 20000 --seeds 1 --plot curves.png
@@ -54,9 +55,12 @@ def main(argv=None):
     for method in args.methods:
         for seed in args.seeds:
             d = args.out / f"{method}-s{seed}"
+            s = None
             if (d / "summary.json").exists():
                 s = json.loads((d / "summary.json").read_text())
-            else:
+                if s.get("flights", 0) < flights:      # a shorter run: resumed to the mark
+                    s = None
+            if s is None:
                 budget = problem.budget.with_(seed=seed, flights=flights,
                                               generations=10 ** 6)
                 t0 = time.perf_counter()
