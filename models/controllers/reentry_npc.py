@@ -83,9 +83,8 @@ def gate_weight(x, c: float, gate: float, kd: float, model: ReentryParams) -> fl
     before the peak, low down after it) instead of raising the peak."""
     if gate <= 0.0 or c <= 0.0:
         return 1.0
-    _, _, lam, rz = model.constants()
-    n = kd * (x[1] * x[1] + x[3] * x[3]) * math.exp(-lam * (math.hypot(x[0], x[2]) - rz)) \
-        / model.g0
+    n = kd * (x[1] * x[1] + x[3] * x[3]) \
+        * math.exp(-model.lam * (math.hypot(x[0], x[2]) - model.Rz)) / model.g0
     return (1.0 - n / gate) ** 2 if n < gate else 0.0
 
 
@@ -293,9 +292,11 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
                 self.x[self.correction_input - 1] = self._c
             u = super()._outputs()
             if self.correction_gain:
-                x = self.nav_state()
-                kd = self._kd * math.exp(self.current_estimate())
-                u[0] = self._corrected(u[0], self._c, x, kd)
+                if self.correction_gate and self._c > 0.0:     # the gate needs the state
+                    u[0] = self._corrected(u[0], self._c, self.nav_state(),
+                                           self._kd * math.exp(self.current_estimate()))
+                else:
+                    u[0] = self._corrected(u[0], self._c)
             return u
         return super()._outputs()
 
@@ -305,11 +306,12 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
     def _active(self) -> bool:
         return self._reads_c() or self.correction_gain != 0.0
 
-    def _corrected(self, u: float, c: float, x, kd: float) -> float:
+    def _corrected(self, u: float, c: float, x=None, kd: float = 0.0) -> float:
         """The law's clipped output plus g w c (w: :func:`gate_weight` at the state ``x`` with
-        the drag factor ``kd``), clipped to the same bounds."""
-        w = gate_weight(x, c, self.correction_gate, kd, self._model) if self.correction_gate \
-            else 1.0
+        the drag factor ``kd``; 1 without a gate or for c <= 0, where ``x`` is not needed),
+        clipped to the same bounds."""
+        w = gate_weight(x, c, self.correction_gate, kd, self._model) \
+            if self.correction_gate and c > 0.0 else 1.0
         v = u + self.correction_gain * w * c
         return self.u_lo[0] if v < self.u_lo[0] else (self.u_hi[0] if v > self.u_hi[0] else v)
 

@@ -145,7 +145,7 @@ def run_robustness(args) -> int:
     bad = [g for g in args.gate if g < 0.0]
     if bad:
         raise CliError(f"--gate must be >= 0 g (0 = no gate), got {bad[0]:g}")
-    laws = {}
+    laws, gated = {}, False
     for path, guided in [(p, False) for p in args.law] + [(p, True) for p in args.guided]:
         name = Path(path).stem if Path(path).name != "law.json" else str(Path(path).parent)
         try:
@@ -157,10 +157,11 @@ def run_robustness(args) -> int:
         if not reads_correction(law):
             laws[name] = law
             continue
+        gated = True
         for gate in args.gate or [0.0]:
             laws[f"{name}, gate {gate:g} g" if gate else name] = \
                 (law, {"correction_gate": gate}) if gate else law
-    if args.gate and not any(isinstance(v, tuple) or reads_correction(v) for v in laws.values()):
+    if args.gate and not gated:
         raise CliError("--gate applies to laws flown with the correction c (--guided LAW, or a "
                        "law of reentry-guided); none was given")
     programs = {}

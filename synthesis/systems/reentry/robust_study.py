@@ -126,7 +126,7 @@ def fly_npc(params, fmu_dir, noise: float = 0.0, bias: float = 0.0, seed: int = 
 
 def _with_guidance(option):
     """``(law, guidance parameters)`` of a guidance option: a law, or a pair of both."""
-    return (option[0], option[1]) if isinstance(option, tuple) else (option, None)
+    return option if isinstance(option, tuple) else (option, None)
 
 
 def robust_study(laws: dict, samples: int, seed: int, fmu_dir, scenarios=("default",),
@@ -134,7 +134,8 @@ def robust_study(laws: dict, samples: int, seed: int, fmu_dir, scenarios=("defau
                  noise: float = 0.0, bias: float = 0.0) -> dict:
     """Fly every guidance option over the held-out set of each scenario (see the module
     docstring).  ``laws`` maps a name to a law, or to a pair (law, guidance parameters of its
-    controller, e.g. ``{"correction_gate": 12.0}``).  ``programs`` maps a scenario to its open-loop program (flown blind) or None.
+    controller, e.g. ``{"correction_gate": 12.0}``).  ``programs`` maps a scenario to its
+    open-loop program (flown blind) or None.
 
     Returns ``{"samples", "seed", "disjoint", "scenarios": {name: {"params", "results",
     "nominal", "stats", "oracle"}}}``; ``nominal`` holds each option's nominal flight."""
