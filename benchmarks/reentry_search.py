@@ -62,17 +62,13 @@ def main(argv=None):
     for method in args.methods:
         for seed in args.seeds:
             d = args.out / f"{method}-s{seed}"
-            s = None
-            if (d / "summary.json").exists():
-                s = json.loads((d / "summary.json").read_text())
-                if s.get("flights", 0) < flights:      # a shorter run: resumed to the mark
-                    s = None
-            if s is None and args.no_run:
-                if (d / "summary.json").exists():
-                    s = json.loads((d / "summary.json").read_text())
-                else:
-                    print(f"{method} seed {seed}: no run in {d}")
-                    continue
+            summary = d / "summary.json"
+            s = json.loads(summary.read_text()) if summary.exists() else None
+            if args.no_run and s is None:
+                print(f"{method} seed {seed}: no run in {d}")
+                continue
+            if not args.no_run and s is not None and s.get("flights", 0) < flights:
+                s = None                           # a shorter run: resumed to the mark
             if s is None:
                 budget = problem.budget.with_(seed=seed, flights=flights,
                                               generations=10 ** 6)
