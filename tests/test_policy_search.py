@@ -103,6 +103,26 @@ def test_cma_restarts_with_a_larger_population():
     assert s.restarts >= 1 and s.popsize == p0 * 2 ** s.restarts
 
 
+def test_cma_restart_steps_relative_to_the_restart_point():
+    # a restart's step is relative to the point it restarts from (scale max(|x|, floor), the
+    # definition in CMA): parameters that grew a thousandfold keep steps of their own size.
+    # Oracle: the bowl's minimum at (2000, -500), far from the start (1, 1).
+    bowl = lambda xs: [float(((x[0] - 2000.0) / 1000) ** 2 + ((x[1] + 500.0) / 1000) ** 2)
+                       for x in xs]  # noqa: E731
+    c = CMA([1.0, 1.0], 0.3, seed=5)
+    for _ in range(200):
+        c.tell(bowl(c.ask()))
+    assert c.best_x == pytest.approx([2000.0, -500.0], abs=1.0)
+    c.restart()
+    assert np.array_equal(c.scale, np.maximum(np.abs(c.best_x), 0.1))
+    spread = np.std(np.array(c.ask()), axis=0) / np.abs(c.best_x)
+    assert np.all((spread > 0.1) & (spread < 0.6))        # ~sigma0 = 0.3 of each coordinate
+    fixed = CMA([1.0, 1.0], 0.3, seed=5, scale=[1.0, 2.0])   # a given scale stays as given
+    fixed.tell(bowl(fixed.ask()))
+    fixed.restart()
+    assert np.array_equal(fixed.scale, [1.0, 2.0])
+
+
 def test_cma_candidates_are_mapped_and_bounded():
     c = CMA([0.5, -0.5], 0.5, seed=2, bounds=(-1.0, 1.0), x_map=lambda x: np.round(x, 2))
     xs = c.ask()

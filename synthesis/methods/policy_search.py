@@ -98,7 +98,8 @@ class CMA:
         Initial step size relative to ``scale``.
     seed : int
     scale : sequence of float, optional
-        Per-coordinate scale (default ``max(|x0|, scale_floor)``).
+        Per-coordinate scale (default ``max(|x0|, scale_floor)``, taken again at every
+        restart from the restart point).
     popsize : int, optional
         Candidates per generation (default pycma's 4 + 3 ln n).
     bounds : (float, float), optional
@@ -109,8 +110,12 @@ class CMA:
     restart_sigma, restart_stall : float, int, optional
         Restart once the step size fell below ``restart_sigma * sigma`` or the best value has
         not improved for ``restart_stall`` generations: a new search from the best point found,
-        with the initial step size and twice the population (IPOP), seed ``seed + 1000 r`` at
-        the r-th restart.  None: never.
+        with the initial relative step size and twice the population (IPOP), seed
+        ``seed + 1000 r`` at the r-th restart.  None: never.  With the default scale the
+        restart's scale is ``max(|x|, scale_floor)`` at the restart point: the step stays
+        relative to the parameters' size when they have grown far beyond the start's (a
+        polynomial law's coefficients grow to thousands), so a restart explores around the
+        point instead of polishing it with steps a thousandth of its size.
     """
 
     def __init__(self, x0, sigma: float = 0.3, seed: int = 1, scale=None,
@@ -118,6 +123,7 @@ class CMA:
                  scale_floor: float = 0.1, x_map=None, restart_sigma: float | None = None,
                  restart_stall: int | None = None):
         x0 = np.asarray(x0, float)
+        self.scale_floor, self.relative = float(scale_floor), scale is None
         self.scale = (np.maximum(np.abs(x0), scale_floor) if scale is None
                       else np.asarray(scale, float))
         self.bounds = bounds
@@ -181,9 +187,12 @@ class CMA:
 
     def restart(self, x0=None) -> None:
         """IPOP restart: a new search from ``x0`` (default the best point found) with the
-        initial step size and twice the population."""
+        initial relative step size (rescaled to the point, see the class) and twice the
+        population."""
         self.restarts += 1
-        x0 = x0 if x0 is not None else self.best_x
+        x0 = np.asarray(x0 if x0 is not None else self.best_x, float)
+        if self.relative:
+            self.scale = np.maximum(np.abs(x0), self.scale_floor)
         self.es = self._strategy(x0, self.seed + 1000 * self.restarts, 2 * self.popsize)
         self.stall = 0
 
@@ -201,7 +210,7 @@ class CMA:
         child.best_value, child.best_x, child.stall = math.inf, None, 0
         return child
 
-    _STATE = ("es", "scale", "sigma0", "seed", "restart_sigma", "restart_stall", "restarts",
+    _STATE = ("es", "scale", "scale_floor", "relative", "sigma0", "seed", "restart_sigma", "restart_stall", "restarts",
               "best_value", "best_x", "stall")
 
     def state(self) -> str:
