@@ -501,11 +501,12 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         q_lo, q_hi = float(qr[0]), float(qr[1])
     q_ib, q_fb = 4, 12
     if "q_bits" in ga:
+        # up to 48 bits: the Gray code decodes through int64 and float64 (exact to 2^53)
         qb = ga["q_bits"]
         if not (isinstance(qb, list) and len(qb) == 2 and all(isinstance(x, int) and x >= 0
                                                                for x in qb)
-                and 1 <= sum(qb) <= 30):
-            raise rd.error("ga.q_bits", f"must be [integer bits, fraction bits] with 1 to 30 "
+                and 1 <= sum(qb) <= 48):
+            raise rd.error("ga.q_bits", f"must be [integer bits, fraction bits] with 1 to 48 "
                                         f"bits in all, got {qb!r}")
         q_ib, q_fb = qb
     if any(not q_lo <= v < q_hi for v in law.q):
