@@ -210,8 +210,8 @@ class CMA:
         child.best_value, child.best_x, child.stall = math.inf, None, 0
         return child
 
-    _STATE = ("es", "scale", "scale_floor", "relative", "sigma0", "seed", "restart_sigma", "restart_stall", "restarts",
-              "best_value", "best_x", "stall")
+    _STATE = ("es", "scale", "scale_floor", "relative", "sigma0", "seed", "restart_sigma",
+              "restart_stall", "restarts", "best_value", "best_x", "stall")
 
     def state(self) -> str:
         """The optimiser with its generator, scale and restart bookkeeping, pickled (base64)."""

@@ -257,7 +257,7 @@ TARGET_TIGHT = Target(objective=0, constraint=1, limit=TIGHT_MISS)
 #: coefficients on a grid of 3.8e-6, a range the CMA-ES refinement never meets: near the
 #: bound the cubic's coefficients grow to thousands (the law tends to a switching law with a
 #: thin linear band; the unbounded polynomial baseline's reach 5500).  With +-64 the basis
-#: search stalled against the range (8.292 / 8.286 / 8.285 after 20 000 flights, seeds 1-3).
+#: search stalled against the range (8.292 / 8.285 / 8.285 after 20 000 flights, seeds 1-3).
 Q_BITS = (15, 18, -16384.0, 16384.0)
 #: The robust variant has no CMA-ES refinement: its parameters are searched by the Gray-coded
 #: bit flips alone, which a narrow range keeps small (6 + 18 bits over [-64, 64)).
