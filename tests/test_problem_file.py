@@ -96,6 +96,8 @@ BAD = [
     ("step = 0.1", "step = -0.1", ["simulation.step", "> 0"]),
     ("over_states = \"max\"", "over_states = \"worst\"", ["objectives[1].over_states"]),
     ("[ga]", "[ga]\npopulation_size = 3", ["ga.population_size", "unknown key"]),
+    # the Gray code decodes through int64/float64: at most 48 bits per parameter
+    ("[ga]", "[ga]\nq_bits = [30, 19]", ["ga.q_bits", "1 to 48"]),
 ]
 
 
