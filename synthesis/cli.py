@@ -301,13 +301,21 @@ def entry() -> None:
     ("corrupted double-linked list") after a run had finished and written everything -- an
     exit status that would have reported a good run as a crash.
     """
-    import atexit
     try:
         code = main()
     except SystemExit as exc:          # argparse: --help, usage errors
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
         if exc.code is not None and not isinstance(exc.code, int):
             print(exc.code, file=sys.stderr)
+    exit_without_teardown(code)
+
+
+def exit_without_teardown(code) -> None:
+    """End the process with ``code`` once the exit handlers have run and the output is
+    flushed, skipping the interpreter's teardown (see :func:`entry`: with pythonfmu FMUs loaded
+    in the process, glibc's heap checks were seen, rarely, to abort it after all work was
+    done).  The test session ends the same way (``tests/conftest.py``)."""
+    import atexit
     atexit._run_exitfuncs()
     sys.stdout.flush()
     sys.stderr.flush()

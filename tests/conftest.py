@@ -37,3 +37,17 @@ def open_loop_program():
     bound, true-peak load; ~25 s, computed once)."""
     from descent_fmus.synthesis.systems.reentry.bound import optimize_open_loop
     return optimize_open_loop()
+
+
+def pytest_sessionfinish(session, exitstatus):
+    session.config._descent_exit = int(exitstatus)
+
+
+def pytest_unconfigure(config):
+    # after the summary is printed: end as the descent-fmus program does, without the
+    # interpreter's teardown (pythonfmu FMUs loaded in this process were seen, rarely, to make
+    # it abort in glibc's heap checks after every test had passed)
+    if hasattr(config, "_descent_exit") and not hasattr(config, "workerinput"):
+        from descent_fmus.synthesis.cli import exit_without_teardown
+        exit_without_teardown(config._descent_exit)
+
