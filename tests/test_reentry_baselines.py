@@ -9,6 +9,7 @@ import json
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
@@ -34,9 +35,19 @@ def test_baselines_are_laws_of_the_generic_controller(fmu_dir):
         assert flights[name]["J1"] == pytest.approx(paper["J1"], rel=1e-9)
         assert flights[name]["J2"] == pytest.approx(paper["J2"], rel=1e-6)
     assert paper["J1"] == pytest.approx(8.820, abs=1e-3)
-    # the GA's basic solution is the polynomial structure on 32 nodes (spare nodes)
-    assert REENTRY.basic().size == 32
-    assert REENTRY.basic().formula() == structures["polynomial"].formula()
+    # the GA's basic solution is the polynomial's structure on 32 nodes (spare nodes) in the
+    # window inputs 100 (y1 - 0.19), 10 (y2 + 0.25), at the paper's basic law: the same flight
+    # (the same function: q1 y1 + q2 y2 = -0.059 + (q1/100) w1 + (q2/10) w2, closed form)
+    basic = REENTRY.basic()
+    poly = structures["polynomial"]
+    assert basic.size == 32 and np.array_equal(basic.psi[:poly.size - 1, :poly.size - 1],
+                                               poly.psi[:poly.size - 1, :poly.size - 1])
+    assert basic.input_offset == [0.19, -0.25] and basic.input_scale == [100.0, 10.0]
+    assert basic.q[0] == pytest.approx(2.259375 * 0.19 - 1.953125 * 0.25, rel=1e-15)
+    with load_loop(fmu_dir) as loop:
+        own = fly(basic, loop=loop).objectives
+    assert own["J1"] == pytest.approx(paper["J1"], rel=1e-9)
+    assert own["J2"] == pytest.approx(paper["J2"], rel=1e-6)
 
 
 def test_baseline_run_exports_laws_that_replay_under_fmpy(fmu_dir, tmp_path):

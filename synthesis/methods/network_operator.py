@@ -333,7 +333,7 @@ class NetworkOperator:
         for k in range(self.nx):
             name, scale, off = self.input_names[k], self.input_scale[k], self.input_offset[k]
             if off != 0.0:
-                name = f"({name}-{off:.{digits}g})"
+                name = f"({name}{-off:+.{digits}g})"
             expr[k] = name if scale == 1.0 else f"{scale:.{digits}g}*{name}"
         for k in range(len(self.q)):
             expr[self.nx + k] = f"{self.q[k]:.{digits}g}"

@@ -29,7 +29,8 @@ from descent_fmus.synthesis.problem import Budget, Report, SynthesisProblem
 __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "plant_values", "objectives", "problems",
            "synthesis_basic_law", "NOT_LANDED_PENALTY", "DIVERGED_J1", "ON_TARGET",
            "ROBUST_CASES", "REENTRY_BUDGET", "TARGET", "baseline_structures",
-           "paper_basic_law_16", "bound_reference", "INPUT_SCALE", "TIGHT_MISS", "Q_BITS"]
+           "paper_basic_law_16", "bound_reference", "INPUT_SCALE", "TIGHT_MISS", "Q_BITS",
+           "robust_basic_law", "WINDOW_CENTRE", "WINDOW_HALF"]
 
 #: Communication step of the reentry closed loop [s] (halving it changes J1 by < 0.5 %:
 #: tests/test_cosim.py).
@@ -115,40 +116,60 @@ def paper_basic_law_16() -> NetworkOperator:
                            input_names=["y1", "y2"])
 
 
-#: Input scaling of the richer laws [choice]: 10*y1 and 2*y2 are of order 1 along a flight
+#: Input scaling of the baselines' laws [choice]: 10*y1 and 2*y2 are of order 1 along a flight
 #: (y1 in [0, 0.2], y2 in [-1.1, -0.1] rad under the basic law).
 INPUT_SCALE = (10.0, 2.0)
+#: Input window of the GA's basic solution [choice] (models/README.md, "S1 synthesis"): its
+#: inputs are w1 = (y1 - 0.19) / 0.01 and w2 = (y2 + 0.25) / 0.1, of order 1 where near-optimal
+#: laws act (unclipped only between t ~ 125 s and 195 s, at y1 in [0.18, 0.20] near its
+#: maximum and y2 in [-0.37, -0.15]).
+WINDOW_CENTRE, WINDOW_HALF = (0.19, -0.25), (0.01, 0.1)
 
 
-def _scaled_template() -> NetworkOperator:
+def _template(scale, offset=(0.0, 0.0)) -> NetworkOperator:
     return NetworkOperator(paper_basic_law_16().psi, 2, list(PAPER_Q) + [1.0, 1.0], [16],
-                           input_names=["y1", "y2"], input_scale=list(INPUT_SCALE))
+                           input_names=["y1", "y2"], input_scale=list(scale),
+                           input_offset=list(offset))
+
+
+def _paper_cubic(template: NetworkOperator, size: int | None = None) -> NetworkOperator:
+    """A cubic polynomial in the template's inputs s_i = k_i (y_i - o_i) at the paper's basic
+    law q1 y1 + q2 y2 = (q1 o1 + q2 o2) + (q1 / k1) s1 + (q2 / k2) s2 (the rest 0)."""
+    from descent_fmus.synthesis.methods.policy_search import polynomial_law
+    (k1, k2), (o1, o2) = template.input_scale, template.input_offset
+    q = [PAPER_Q[0] * o1 + PAPER_Q[1] * o2, PAPER_Q[0] / k1, PAPER_Q[1] / k2] + [0.0] * 7
+    return polynomial_law(template, 3, q, size=size)
 
 
 def synthesis_basic_law() -> NetworkOperator:
-    """The GA's first basic solution [choice]: a cubic polynomial in (10 y1, 2 y2) on 32 nodes,
-    with the paper's basic law as its start (c_y1 = q1/10, c_y2 = q2/2, the rest 0).
+    """The GA's first basic solution [choice]: a cubic polynomial in the window inputs
+    (w1, w2) = ((y1 - 0.19) / 0.01, (y2 + 0.25) / 0.1) on 32 nodes, at the paper's basic law.
 
     Nodes: 1-2 the inputs, 3-12 the coefficients (constant first), 13-21 one product node per
     monomial, 22 their sum, 23-32 identity nodes (spare nodes on which the variations build
     structure).  The method leaves the basic solution to the designer; a richer one than the
-    paper's linear law gives the parameter search (CMA-ES) more to work with.
+    paper's linear law gives the parameter search (CMA-ES) more to work with, and inputs of
+    order 1 where the law acts give it coefficients of order 1 that act nearly independently.
     """
-    from descent_fmus.synthesis.methods.policy_search import polynomial_law
-    q = [0.0, PAPER_Q[0] / INPUT_SCALE[0], PAPER_Q[1] / INPUT_SCALE[1]] + [0.0] * 7
-    return polynomial_law(_scaled_template(), 3, q, size=32)
+    return _paper_cubic(_template([1.0 / h for h in WINDOW_HALF], WINDOW_CENTRE), size=32)
+
+
+def robust_basic_law() -> NetworkOperator:
+    """The robust variant's basic solution: the same cubic in the baselines' inputs
+    (10 y1, 2 y2) on 32 nodes, at the paper's basic law (its Gray-coded bit flips search
+    q in +-64, ``ROBUST_Q_BITS``)."""
+    return _paper_cubic(_template(INPUT_SCALE), size=32)
 
 
 def baseline_structures() -> dict:
     """The fixed structures of the CMA-ES baselines (``synthesize reentry --method cma-NAME``):
-    ``basic`` the paper's basic law (its two gains), ``polynomial`` the cubic polynomial of
-    the basic solution (10 coefficients), ``tanh`` a 2-3-1 tanh network (13 weights, seeded
+    ``basic`` the paper's basic law (its two gains), ``polynomial`` the basic solution's cubic
+    polynomial (10 coefficients) in the inputs (10 y1, 2 y2), ``tanh`` a 2-3-1 tanh network (13 weights, seeded
     random start)."""
-    from descent_fmus.synthesis.methods.policy_search import polynomial_law, tanh_network_law
-    q = [0.0, PAPER_Q[0] / INPUT_SCALE[0], PAPER_Q[1] / INPUT_SCALE[1]] + [0.0] * 7
+    from descent_fmus.synthesis.methods.policy_search import tanh_network_law
     return {"basic": NetworkOperator.basic_law(),
-            "polynomial": polynomial_law(_scaled_template(), 3, q),
-            "tanh": tanh_network_law(_scaled_template(), 3, seed=0)}
+            "polynomial": _paper_cubic(_template(INPUT_SCALE)),
+            "tanh": tanh_network_law(_template(INPUT_SCALE), 3, seed=0)}
 
 
 def nominal_objectives(results):
@@ -236,9 +257,9 @@ def open_loop_reference(out_dir) -> float:
 
 
 #: Default budget of `synthesize reentry` [choice] (models/README.md, "S1 synthesis"): CMA-ES
-#: on the basic solution's parameters first (8000 flights: the cubic needs ~5000 uninterrupted
-#: ones to leave the J1 ~8.45 plateau; measured on seeds 1, 2, 3: 1.002-1.003 x the bound at
-#: 20 000 flights, against 1.002-1.07 x without it), then the GA with CMA-ES refinement of the
+#: on the basic solution's parameters first (8000 flights: in the (10 y1, 2 y2) scaling the
+#: cubic needed ~5000 uninterrupted ones to leave the J1 ~8.45 plateau, and without this
+#: refinement seeds 1-3 ended at 1.002-1.07 x the bound), then the GA with CMA-ES refinement of the
 #: best law's parameters (2000 evaluations, continued for a structure seen before) after every
 #: epoch of 10 generations, stopped after 20 000 flights -- under 10 min with 2 workers on a
 #: quiet 2-core machine.  ``flights`` is the same budget for the fixed-structure CMA-ES
@@ -253,12 +274,11 @@ ROBUST_BUDGET = Budget(population=128, generations=150, crossovers=32, lchr=8, e
 TARGET = Target(objective=0, constraint=1, limit=ON_TARGET)
 TARGET_TIGHT = Target(objective=0, constraint=1, limit=TIGHT_MISS)
 
-#: Gray code of the parameters [choice]: 15 + 18 bits over [-16384, 16384) -- signed polynomial
-#: coefficients on a grid of 3.8e-6, a range the CMA-ES refinement never meets: near the
-#: bound the cubic's coefficients grow to thousands (the law tends to a switching law with a
-#: thin linear band; the unbounded polynomial baseline's reach 5500).  With +-64 the basis
-#: search stalled against the range (8.292 / 8.285 / 8.285 after 20 000 flights, seeds 1-3).
-Q_BITS = (15, 18, -16384.0, 16384.0)
+#: Gray code of the parameters [choice]: 7 + 30 bits over [-64, 64) -- the window cubic's
+#: coefficients stay below 1 in size (seeds 1-4), and near the bound J1 moves with their
+#: 1e-7-th parts, so the grid is 9.3e-10 (a grid of 3.8e-6 stalled the search at 8.2705 /
+#: 8.2708, seeds 1 / 2).
+Q_BITS = (7, 30, -64.0, 64.0)
 #: The robust variant has no CMA-ES refinement: its parameters are searched by the Gray-coded
 #: bit flips alone, which a narrow range keeps small (6 + 18 bits over [-64, 64)).
 ROBUST_Q_BITS = (6, 18, -64.0, 64.0)
@@ -290,7 +310,7 @@ def problems() -> tuple:
             name="reentry-robust", wiring=WIRING,
             initial_states=tuple(plant_values(ReentryParams(**c)) for c in ROBUST_CASES),
             objectives=robust_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
-            basic_law=basic, budget=ROBUST_BUDGET, objective_labels=_LABELS,
+            basic_law=robust_basic_law(), budget=ROBUST_BUDGET, objective_labels=_LABELS,
             q_bits=ROBUST_Q_BITS, source="system reentry",
             description="S1 reentry, robust: worst max load and mean miss over the nominal flight "
                         "and the rho0 +-15 %, V0 +-50 m/s extremes"),
