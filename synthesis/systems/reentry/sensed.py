@@ -381,7 +381,7 @@ def problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
     labels = ("J1 = median max load over the set", f"J2 = {statistic_name} miss over the set [m]")
     common = dict(initial_states=states, objectives=objectives, objective_names=("J1", "J2"),
                   penalty=(spec.DIVERGED_J1, 4 * RACE_OFFSET), budget=SENSED_BUDGET,
-                  objective_labels=labels, q_bits=spec.Q_BITS, report=SensedReport(),
+                  objective_labels=labels, q_bits=spec.SCALED_Q_BITS, report=SensedReport(),
                   source=f"system reentry (set: {samples} samples, seed {seed}, "
                          f"{statistic_name})",
                   target=target)
