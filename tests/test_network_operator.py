@@ -110,6 +110,12 @@ def test_json_round_trip(tmp_path):
 
 def test_formula_of_basic_law():
     assert NetworkOperator.basic_law().formula(4) == "((y1*2.259)+(y2*1.953))"
+    # scaled and offset inputs print as the node holds them: scale * (x - offset), the sign
+    # of a negative offset folded ("+0.25", not "--0.25")
+    law = NetworkOperator.linear([[1.0, 1.0]], input_names=["y1", "y2"],
+                                 input_scale=[100.0, 10.0], input_offset=[0.19, -0.25])
+    f = law.formula(4)
+    assert "100*(y1-0.19)" in f and "10*(y2+0.25)" in f and "--" not in f
 
 
 # -- bad input ----------------------------------------------------------------------------
