@@ -25,7 +25,7 @@ def main(argv=None) -> int:
                     help="build only these systems (default: all)")
     args = ap.parse_args(argv)
     try:
-        from descent_fmus.synthesis.export import (build_slave, closed_loop_fmu, with_defaults,
+        from descent_fmus.synthesis.fmi.compose import (build_slave, closed_loop_fmu, with_defaults,
                                                    write_ssp)
         from descent_fmus.synthesis.registry import SYSTEMS, get_system
     except ImportError as exc:

@@ -8,7 +8,7 @@ Measures, for the reentry problem (every candidate one closed-loop FMU flight):
   local process pool (the same);
 * evaluations/s with 1, 2 and 4 worker processes started with ``dask worker`` (``--nworkers N
   --nthreads 1``) -- the FMUs shipped as bytes, no shared folder;
-* the chunk size the evaluator chooses from these (``synthesis.evaluator.chunk_size``) and a
+* the chunk size the evaluator chooses from these (``synthesis.run.evaluation.chunk_size``) and a
   projection of evaluations/s for N hosts.
 
     python benchmarks/cluster.py [--n 256] [--fmus DIR] [--cores-per-host 2] [--json]
@@ -30,11 +30,11 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
-from descent_fmus.synthesis.evaluator import Evaluator, chunk_size
+from descent_fmus.synthesis.run.evaluation import Evaluator, chunk_size
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import make_ga
+from descent_fmus.synthesis.run.loop import make_ga
 
 PROBLEM = get_problem("reentry")
 

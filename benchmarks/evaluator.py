@@ -15,11 +15,11 @@ import time
 from pathlib import Path
 
 
-from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import make_ga
+from descent_fmus.synthesis.run.loop import make_ga
 
 PROBLEM = get_problem("reentry")
 

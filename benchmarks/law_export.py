@@ -20,12 +20,12 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.law_export import export_law_files
+from descent_fmus.synthesis.fmi.law_files import export_law_files
 from descent_fmus.synthesis.methods.ga import StructureCodec
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import replace_law
+from descent_fmus.synthesis.run.loop import replace_law
 
 
 def ga_laws(n: int, seed: int = 0) -> list:
@@ -92,7 +92,7 @@ def main(argv=None):
         out["size_ratio_full_to_compact"] = full_per_law / (out["compact_total_MB"] * 2 ** 20
                                                             / len(laws))
         # one closed-loop flight: pythonfmu controller vs native law (the same law)
-        from descent_fmus.synthesis.cosim import ClosedLoop
+        from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
         law = NetworkOperator.load(Path(__file__).resolve().parent.parent / "tests" /
                                    "reference" / "reentry_best_law.json")
         native = export_law_files(law, tmp / "flight", law_fmu="native")["controller_fmu"]

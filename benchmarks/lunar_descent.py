@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.systems.lunar_descent.problems import INITIAL_SET

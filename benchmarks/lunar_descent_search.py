@@ -26,10 +26,10 @@ def basic_gains() -> dict:
 
 
 def main(argv=None):
-    from descent_fmus.synthesis.methods.policy_search import Target
+    from descent_fmus.synthesis.methods.baselines import Target
     from descent_fmus.synthesis.paths import fmu_dir
     from descent_fmus.synthesis.registry import get_problem
-    from descent_fmus.synthesis.synthesize import run_synthesis
+    from descent_fmus.synthesis.run.loop import run_synthesis
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--flights", type=int, default=8664,

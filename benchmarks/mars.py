@@ -2,7 +2,7 @@
 
 Prints the median wall time of a controlled descent (660.5 s simulated, communication step
 0.05 s = 13 211 steps) for the averaged plant and the rigid-body plant, each through
-``descent_fmus.synthesis.cosim.ClosedLoop`` (fmpy, FMU instances reused: reset + start values
+``descent_fmus.synthesis.fmi.closed_loop.ClosedLoop`` (fmpy, FMU instances reused: reset + start values
 per run), and the same functions in-process (``descent_fmus.models.mars.simulate`` with the law
 of ``descent_fmus.models.controllers.mars_bellman``); plus the container FMU run by
 ``fmpy.simulate_fmu``.  No assertions (timings belong here, not in the tests).

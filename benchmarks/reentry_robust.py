@@ -3,8 +3,8 @@
 Prints
 
 1. the closed-loop container FMU path (instantiated once, reset per flight, one doStep over the
-   horizon: ``synthesis.runners.ContainerLoop``) against the Python master
-   (``synthesis.cosim.ClosedLoop``) for the same law over the 16 points of the synthesis set,
+   horizon: ``synthesis.fmi.container_loop.ContainerLoop``) against the Python master
+   (``synthesis.fmi.closed_loop.ClosedLoop``) for the same law over the 16 points of the synthesis set,
    as ratios of wall time and of CPU time (median of interleaved repetitions), for the law of
    y1, y2 (NetworkOperatorController, 3 connections) and the law reading y3
    (SensedNetworkOperatorController, 8 connections: 7 to the controller, u back) and the guided
@@ -30,11 +30,11 @@ import statistics
 import time
 from pathlib import Path
 
-from descent_fmus.synthesis.cosim import ClosedLoop
-from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.runners import ContainerLoop, Runner
-from descent_fmus.synthesis.synthesize import make_ga
+from descent_fmus.synthesis.fmi.container_loop import ContainerLoop, Runner
+from descent_fmus.synthesis.run.loop import make_ga
 from descent_fmus.synthesis.systems.reentry import sensed
 
 

@@ -38,7 +38,7 @@ def best_after(curve, mark, flights=None):
 def main(argv=None):
     from descent_fmus.synthesis.paths import fmu_dir
     from descent_fmus.synthesis.registry import get_problem
-    from descent_fmus.synthesis.synthesize import run_synthesis
+    from descent_fmus.synthesis.run.loop import run_synthesis
     from descent_fmus.synthesis.systems.reentry.problems import bound_reference
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -20,8 +20,8 @@ import json
 import sys
 from pathlib import Path
 
-from descent_fmus.synthesis.cli import main as cli_main
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.cli.main import main as cli_main
+from descent_fmus.synthesis.methods.law import NetworkOperator
 
 ROOT = Path(__file__).resolve().parent.parent
 REFERENCE = ROOT / "tests" / "reference" / "lunar_descent_law.json"

@@ -18,10 +18,10 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 from descent_fmus.models.reentry import ReentryParams
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import plot_front
+from descent_fmus.synthesis.run.loop import plot_front
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry.bound import Program, replay_program
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop

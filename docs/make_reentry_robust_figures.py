@@ -31,8 +31,8 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 
 from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
-from descent_fmus.synthesis.cli_common import json_safe
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.cli.common import json_safe
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.systems.reentry import sensed
 from descent_fmus.synthesis.systems.reentry.bound import Program, optimize_open_loop

@@ -22,7 +22,7 @@ Parameter checks run in ``exit_initialization_mode``; a failed check raises
 0.7 logs it with status fmi2Error and returns fmi2Fatal (its C++ layer turns every Python
 exception into fmi2Fatal and forwards log messages only when the host instantiated the FMU with
 ``loggingOn``: ``fmpy simulate --debug-logging`` shows the message); the build's status wrapper
-(``synthesis.export.add_status_wrapper``) makes that fmi2Error.  A container FMU reports a
+(``synthesis.fmi.compose.add_status_wrapper``) makes that fmi2Error.  A container FMU reports a
 failing component as fmi2Error.
 """
 from __future__ import annotations
@@ -281,7 +281,7 @@ class SlaveBase(Fmi2Slave):
     def apply_resource_defaults(self) -> None:
         """Apply ``resources/defaults.json`` ({variable name: value}) if the FMU carries one.
 
-        ``synthesis.export`` writes it (and the same values as XML start values) when a law or a
+        ``synthesis.fmi.compose`` writes it (and the same values as XML start values) when a law or a
         scenario is exported, so an exported FMU *is* the generic FMU with other defaults.
         """
         if not self.resources:

@@ -9,7 +9,7 @@ Every model keeps its parameters in a frozen dataclass whose fields are declared
 
 The unit and the description are written there once and read by everything that shows them:
 the FMU variables (:meth:`models.fmu_support.SlaveBase.parameters`), the command-line help
-(``synthesis.cli_common.add_parameter_options``) and the parameter tables of the docs
+(``synthesis.cli.common.add_parameter_options``) and the parameter tables of the docs
 (``descent-fmus info``).  Units use the FMI spelling (``m/s2``, ``kg.m2``, ``1`` for
 dimensionless).
 

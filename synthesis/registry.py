@@ -115,7 +115,7 @@ def problem_names() -> list[str]:
 
 
 def get_problem(name: str):
-    """A registered :class:`~synthesis.problem.SynthesisProblem` by name."""
+    """A registered :class:`~synthesis.problems.contract.SynthesisProblem` by name."""
     problems = _problems()
     try:
         return problems[name]

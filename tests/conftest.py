@@ -48,6 +48,6 @@ def pytest_unconfigure(config):
     # interpreter's teardown (pythonfmu FMUs loaded in this process were seen, rarely, to make
     # it abort in glibc's heap checks after every test had passed)
     if hasattr(config, "_descent_exit") and not hasattr(config, "workerinput"):
-        from descent_fmus.synthesis.cli import exit_without_teardown
+        from descent_fmus.synthesis.cli.main import exit_without_teardown
         exit_without_teardown(config._descent_exit)
 

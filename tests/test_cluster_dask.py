@@ -1,7 +1,7 @@
 """Scale-out without a shared filesystem: a real Dask scheduler and workers started with the
 ``dask`` command line in their own working and temporary directories.
 
-The workers get the FMUs only as bytes from the client (synthesis.cluster.FmuShipment); the
+The workers get the FMUs only as bytes from the client (synthesis.run.cluster.FmuShipment); the
 client's FMU folder is renamed away while the run goes on.  Oracles: the same run evaluated in
 this process (same seed => the same Pareto set, to the last digit), and the FMU's own error
 message for a setup in which every candidate fails.
@@ -22,10 +22,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.evaluator import Evaluator
+from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import make_ga
-from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.run.loop import make_ga
+from descent_fmus.synthesis.problems.contract import Budget
 
 ROOT = Path(__file__).resolve().parent.parent
 REENTRY = get_problem("reentry")
@@ -126,7 +126,7 @@ def client_fmus(tmp_path, fmu_dir):
 
 
 def _cli(*args, **kw):
-    return subprocess.Popen([sys.executable, "-m", "descent_fmus.synthesis.cli",
+    return subprocess.Popen([sys.executable, "-m", "descent_fmus.synthesis.cli.main",
                              *map(str, args)],
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, **kw)
@@ -209,7 +209,7 @@ def test_every_candidate_failing_stops_the_run(cluster, client_fmus, tmp_path):
 def test_chunk_size_minimises_the_batch_time(n, workers, flight, overhead):
     # the batch-time model of chunk_size, minimised by brute force over every chunk size:
     # T(k) = n c / W + ceil(n / k) o / W + k c / 2; the closed form lands within one law of it
-    from descent_fmus.synthesis.evaluator import chunk_size
+    from descent_fmus.synthesis.run.evaluation import chunk_size
 
     def T(k):
         return n * flight / workers + -(-n // k) * overhead / workers + k * flight / 2

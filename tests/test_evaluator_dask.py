@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.evaluator import Evaluator
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.run.evaluation import Evaluator
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem
 
 ROOT = Path(__file__).resolve().parent.parent

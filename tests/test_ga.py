@@ -126,7 +126,7 @@ def _bowl_objectives(cands):
 
 
 def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise"):
-    from descent_fmus.synthesis.methods.policy_search import Target
+    from descent_fmus.synthesis.methods.baselines import Target
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1

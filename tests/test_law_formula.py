@@ -19,9 +19,9 @@ import sympy
 from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS, BIG, UNARY,
                                                               UNARY_OPS)
 from descent_fmus.synthesis.methods.law_formula import readable, sympy_functions
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.native.build import find_compiler
-from descent_fmus.synthesis.native.ccode import OperationError, law_c, operations_c, render
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.ccode import OperationError, law_c, operations_c, render
 
 from test_native_law import DESCENT_LAW, REENTRY_LAW, every_operation_law
 

@@ -86,7 +86,7 @@ def hook(event, args):
         opened.append(args[0])
 sys.addaudithook(hook)
 import descent_fmus.synthesis
-from descent_fmus.synthesis.cli import build_parser
+from descent_fmus.synthesis.cli.main import build_parser
 build_parser()                               # imports every system package and its commands
 from descent_fmus.synthesis.registry import all_systems, problem_names
 all_systems(); problem_names()

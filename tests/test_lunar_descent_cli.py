@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.systems.lunar_descent.problems import LUNAR_DESCENT_BUDGET
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -19,7 +19,7 @@ REFERENCE_LAW = ROOT / "tests" / "reference" / "lunar_descent_law.json"
 
 
 def _cli(*args, cwd=ROOT):
-    return subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", *args], cwd=cwd,
+    return subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli.main", *args], cwd=cwd,
                           capture_output=True, text=True)
 
 

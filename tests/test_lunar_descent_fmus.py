@@ -12,12 +12,12 @@ from fmpy import simulate_fmu
 
 from descent_fmus.models.integrators import CRASHED, LEFT_DOMAIN, REACHED
 from descent_fmus.models.lunar_descent import DescentParams, simulate
-from descent_fmus.synthesis.cosim import FMUError
-from descent_fmus.synthesis.evaluator import Evaluator
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.fmi.closed_loop import FMUError
+from descent_fmus.synthesis.run.evaluation import Evaluator
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import run_synthesis
+from descent_fmus.synthesis.run.loop import run_synthesis
 from descent_fmus.synthesis.systems.lunar_descent.problems import (INITIAL_SET, initial_states,
                                                                     per_state,
                                                                     synthesis_basic_law, totals)

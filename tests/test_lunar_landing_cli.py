@@ -14,7 +14,7 @@ import pytest
 from descent_fmus.models.integrators import REACHED
 from descent_fmus.models.lunar_landing import LanderParams
 from descent_fmus.models.params import description_of
-from descent_fmus.synthesis.cli import main
+from descent_fmus.synthesis.cli.main import main
 from descent_fmus.synthesis.systems.lunar_landing.problems import PAPER_TABLE2
 
 

@@ -9,7 +9,7 @@ import json
 import subprocess
 import sys
 
-from descent_fmus.synthesis.cli import main
+from descent_fmus.synthesis.cli.main import main
 
 
 def _fly(*argv):
@@ -71,7 +71,7 @@ def test_importing_the_system_does_no_work():
     # imports neither scipy.integrate nor matplotlib
     code = """
 import builtins, sys
-import descent_fmus.synthesis.cosim, descent_fmus.models.fmu_support
+import descent_fmus.synthesis.fmi.closed_loop, descent_fmus.models.fmu_support
 opened = []
 real_open = builtins.open
 builtins.open = lambda *a, **k: (opened.append(a[0]), real_open(*a, **k))[1]

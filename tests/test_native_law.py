@@ -25,12 +25,12 @@ from fmpy.ssp.ssd import read_ssd
 from fmpy.validation import validate_fmu
 
 from descent_fmus.models.controllers.network_operator import BINARY, UNARY
-from descent_fmus.synthesis.cosim import ClosedLoop, load_slave
-from descent_fmus.synthesis.evaluator import Evaluator
-from descent_fmus.synthesis.law_export import export_law_files
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.native.build import find_compiler
-from descent_fmus.synthesis.native.law_fmu import build_law_fmu
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
+from descent_fmus.synthesis.run.evaluation import Evaluator
+from descent_fmus.synthesis.fmi.law_files import export_law_files
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.law_fmu import build_law_fmu
 from descent_fmus.synthesis.registry import get_problem
 
 REF = Path(__file__).parent / "reference"

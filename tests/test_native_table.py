@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.cosim import ClosedLoop, load_slave
-from descent_fmus.synthesis.native.build import find_compiler
-from descent_fmus.synthesis.native.table_fmu import (build_program_fmu, build_step_program_fmu,
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
+from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.table_fmu import (build_program_fmu, build_step_program_fmu,
                                                      hold_program_fmu, landing_program_fmu,
                                                      program_of_start_values)
 
@@ -70,7 +70,7 @@ def test_s1_open_loop_program(fmu_dir, tmp_path):
     # (bound.replay_program sets u[k] at every segment start): the same J1 and landing point
     # to 1e-12 (the mean over a segment is u[k] to the last bit or one rounding of the times)
     from descent_fmus.models.reentry import T_PLUS
-    from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
+    from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
     from descent_fmus.synthesis.systems.reentry.bound import Program, replay_program
     prog = Program(0.2 * np.sin(np.linspace(0.0, 6.0, 120)), 2.5)
     native = hold_program_fmu(tmp_path / "ReentryProgram.fmu", prog.t_seg, prog.u,

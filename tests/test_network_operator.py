@@ -9,8 +9,8 @@ import pytest
 
 from descent_fmus.models.controllers.network_operator import (BIG, L_MAX, UNARY, BINARY, MatrixError,
                                                  PAPER_Q)
-from descent_fmus.synthesis.cosim import FMUError, load_slave
-from descent_fmus.synthesis.methods.network_operator import CapacityError, LawFileError, NetworkOperator
+from descent_fmus.synthesis.fmi.closed_loop import FMUError, load_slave
+from descent_fmus.synthesis.methods.law import CapacityError, LawFileError, NetworkOperator
 
 
 def random_law(rng: np.random.Generator, L: int, nx: int = 2, nq: int = 2) -> NetworkOperator:
@@ -174,7 +174,7 @@ def test_malformed_law_file(tmp_path):
 
 
 def test_fmu_rejects_a_bad_matrix_with_its_reason(fmu_dir):
-    from descent_fmus.synthesis.cosim import ClosedLoop
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
     from descent_fmus.synthesis.systems.reentry.problems import WIRING
     loop = ClosedLoop(WIRING, fmu_dir / "Reentry.fmu", fmu_dir / "NetworkOperatorController.fmu")
     try:

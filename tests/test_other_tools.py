@@ -1,6 +1,6 @@
 """A second FMI tool: the native co-simulation host ecos (ecospy) runs our SSP.
 
-Oracle: our fmpy master (synthesis.cosim) on the same FMUs.  ecos is a Jacobi master (it reads
+Oracle: our fmpy master (synthesis.fmi.closed_loop) on the same FMUs.  ecos is a Jacobi master (it reads
 every output before it sets any input, so the controller acts on y(t_k-1)); our master run with
 scheme="jacobi" does the same, and the landing numbers must then agree to the 6 decimals ecos
 prints.  The default Gauss-Seidel scheme (fmpy's container FMU) differs by a one-step delay.
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.other_tools import EcosUnavailable, run_ecos
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.fmi.other_tools import EcosUnavailable, run_ecos
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.systems.reentry.flight import load_loop
 from descent_fmus.synthesis.systems.reentry import problems as spec

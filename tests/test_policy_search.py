@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.methods.policy_search import (CMA, PolicySearch, Target, monomials,
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.baselines import (CMA, PolicySearch, Target, monomials,
                                                           polynomial_law, tanh_network_law)
 
 TEMPLATE = NetworkOperator.linear([[1.0, 1.0]], bounds=[(-0.2, 0.2)], input_names=["a", "b"],

@@ -30,7 +30,7 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
 
 
 def _cli(*args):
-    return [sys.executable, "-m", "descent_fmus.synthesis.cli", *map(str, args)]
+    return [sys.executable, "-m", "descent_fmus.synthesis.cli.main", *map(str, args)]
 
 
 def _group(pgid: int) -> list:
@@ -219,7 +219,7 @@ def test_json_commands_write_nothing(fmu_dir, tmp_path):
     ["lunar-landing", "fly"], ["lunar-landing", "solve"]],
     ids=lambda a: " ".join(a))
 def test_commands_write_only_what_is_asked(fmu_dir, tmp_path, monkeypatch, capsys, args):
-    from descent_fmus.synthesis.cli import main
+    from descent_fmus.synthesis.cli.main import main
     monkeypatch.chdir(tmp_path)
     fmus = ["--fmus", str(fmu_dir)] if args[-1] in ("fly",) else []
     assert main(args + fmus) == 0

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import pytest
 
-from descent_fmus.synthesis.problem import Budget
-from descent_fmus.synthesis.problem_file import ProblemFileError, load_problem_file
+from descent_fmus.synthesis.problems.contract import Budget
+from descent_fmus.synthesis.problems.files import ProblemFileError, load_problem_file
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import run_synthesis
+from descent_fmus.synthesis.run.loop import run_synthesis
 
 ROOT = Path(__file__).resolve().parent.parent
 TUTORIAL = ROOT / "docs" / "tutorial"
@@ -113,7 +113,7 @@ def test_bad_problem_files_are_one_line_errors(hopper_dir, fmu_dir, tmp_path, ol
         assert w in msg, msg
     # the command line: exit 2, one line naming the file, nothing written
     out = tmp_path / "out"
-    r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize",
+    r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize",
                         "--problem", str(bad), "--out", str(out), "--fmus", str(fmu_dir)],
                        capture_output=True, text=True)
     assert r.returncode == 2 and str(bad) in r.stderr and len(r.stderr.strip().splitlines()) == 1

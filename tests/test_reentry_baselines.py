@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.synthesize import methods, run_synthesis
+from descent_fmus.synthesis.run.loop import methods, run_synthesis
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
 
 REENTRY = get_problem("reentry")
@@ -79,7 +79,7 @@ def test_baseline_run_resumes_to_the_uninterrupted_result(fmu_dir, tmp_path):
 
 
 def test_unknown_method_is_a_one_line_error(fmu_dir, tmp_path):
-    r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize",
+    r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize",
                         "reentry", "--method", "cma-nope", "--out", str(tmp_path / "x"),
                         "--fmus", str(fmu_dir)], capture_output=True, text=True)
     assert r.returncode == 2

@@ -15,8 +15,8 @@ from scipy.integrate import solve_ivp
 
 from descent_fmus.models.controllers.reentry_npc import gate_weight, predict_range
 from descent_fmus.models.reentry import ReentryParams, deviations, initial_state, loads, rhs
-from descent_fmus.synthesis.cosim import ClosedLoop, FMUError
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry import sensed
@@ -119,7 +119,7 @@ def test_guided_problem_judges_the_basic_solution_on_the_set(fmu_dir):
 
 
 def test_guided_cli_bad_input_is_a_one_line_error(tmp_path, capsys):
-    from descent_fmus.synthesis.cli import main
+    from descent_fmus.synthesis.cli.main import main
     law = tmp_path / "five.json"
     NetworkOperator.linear([[1.0, 1.0, 1.0, 1.0, 1.0]]).save(law)
     for argv in (["reentry", "robustness", "--guided", str(law)],
@@ -141,7 +141,7 @@ def test_exported_guided_closed_loop_reproduces_the_evaluators_flights(fmu_dir, 
     from fmpy import extract, instantiate_fmu, read_model_description, simulate_fmu
 
     from descent_fmus.models.reentry import T_PLUS
-    from descent_fmus.synthesis.law_export import export_law_files
+    from descent_fmus.synthesis.fmi.law_files import export_law_files
     problem = get_problem("reentry-guided")
     law = sensed.default_guided_law()
     out = export_law_files(law, tmp_path / "law", law_fmu="native", fmu_dir=fmu_dir,

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 from fmpy import simulate_fmu
 
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.systems.reentry.bound import optimize_open_loop
 from descent_fmus.synthesis.systems.reentry.flight import fly
 
@@ -43,7 +43,7 @@ def test_law_as_fmu_start_values_runs_in_the_container(law, fmu_dir, tmp_path):
     # the law exported as an FMU (controller FMU with the law as defaults + container) gives the
     # same flight under fmpy simulate as the Python master
     from descent_fmus.synthesis.registry import get_problem
-    from descent_fmus.synthesis.synthesize import export_law
+    from descent_fmus.synthesis.run.loop import export_law
     out = export_law(get_problem("reentry"), law, fmu_dir, tmp_path / "law")
     res = simulate_fmu(out["closed_loop_fmu"], output=["L", "load_max", "status"])
     o = fly(law, fmu_dir=fmu_dir).objectives

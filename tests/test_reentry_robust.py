@@ -2,7 +2,7 @@
 container path, statistics), the exported closed loop with the estimator, bad input.
 
 Oracles: independent DOP853 integrations of the S1 equations (oracle bound); the Python master
-(:class:`synthesis.cosim.ClosedLoop`) for the container path and for fmpy's ``simulate_fmu`` of
+(:class:`synthesis.fmi.closed_loop.ClosedLoop`) for the container path and for fmpy's ``simulate_fmu`` of
 the exported closed loop; the issue's rules for the sets (disjoint, seeded).
 """
 from __future__ import annotations
@@ -17,9 +17,9 @@ from scipy.integrate import solve_ivp
 
 from descent_fmus.models.controllers.reentry_npc import predict_range
 from descent_fmus.models.reentry import T_PLUS, ReentryParams, initial_state
-from descent_fmus.synthesis.cosim import ClosedLoop
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.runners import ContainerLoop
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry import sensed
 from descent_fmus.synthesis.systems.reentry.oracle import oracle_bound
@@ -80,7 +80,7 @@ def test_held_out_set_is_seeded_and_disjoint_from_the_synthesis_set():
 
 
 def test_bad_input_is_a_one_line_error(capsys):
-    from descent_fmus.synthesis.cli import main
+    from descent_fmus.synthesis.cli.main import main
     with pytest.raises(ValueError, match="unknown statistic 'p99'; choose from"):
         sensed.statistic("p99")
     with pytest.raises(ValueError, match="unknown statistic"):
@@ -147,8 +147,8 @@ def test_exported_closed_loop_with_the_estimator_reproduces_the_pareto_row(fmu_d
     # the robust law as users get it (controller FMU with the estimator and the law as
     # defaults, closed-loop container, SSP), flown by fmpy simulate from every point of the
     # synthesis set: the objectives equal the evaluator's row
-    from descent_fmus.synthesis.evaluator import evaluate_on
-    from descent_fmus.synthesis.law_export import export_law_files
+    from descent_fmus.synthesis.run.evaluation import evaluate_on
+    from descent_fmus.synthesis.fmi.law_files import export_law_files
     problem = next(p for p in sensed.problems() if p.name == "reentry-sensed")
     law = sensed.default_law()
     out = export_law_files(law, tmp_path / "law", law_fmu="native", fmu_dir=fmu_dir,

@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 from fmpy import simulate_fmu
 
-from descent_fmus.synthesis.evaluator import Evaluator, SchedulerError
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.problem import Budget
+from descent_fmus.synthesis.run.evaluation import Evaluator, SchedulerError
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
-from descent_fmus.synthesis.synthesize import RunDirError, run_synthesis
+from descent_fmus.synthesis.run.loop import RunDirError, run_synthesis
 from descent_fmus.synthesis.systems.reentry.flight import fly
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -99,7 +99,7 @@ def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):
 def test_killed_cli_run_resumes(fmu_dir, tmp_path):
     # a real SIGKILL in the middle of a CLI run: resume loses at most one generation and
     # finishes with the same Pareto set as an uninterrupted run of the same seed
-    args = [sys.executable, "-m", "descent_fmus.synthesis.cli", "synthesize", "reentry", "--population", "16",
+    args = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry", "--population", "16",
             "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
             "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-reference",
             "--refine-evals", "20", "--refine-basis", "0", "--fmus", str(fmu_dir)]
@@ -168,7 +168,7 @@ def test_bad_input(fmu_dir, tmp_path):
 
 def test_cli_messages(fmu_dir, tmp_path):
     def cli(*a):
-        return subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli", *a], cwd=ROOT,
+        return subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli.main", *a], cwd=ROOT,
                               capture_output=True, text=True)
     r = cli("synthesize", "nowhere", "--out", str(tmp_path / "x"))
     assert r.returncode == 2 and "unknown synthesis problem 'nowhere'" in r.stderr

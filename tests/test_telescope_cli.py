@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from descent_fmus.synthesis.cli import main
+from descent_fmus.synthesis.cli.main import main
 
 
 def test_reorient_json_and_no_file_without_plot(capsys, tmp_path, monkeypatch):

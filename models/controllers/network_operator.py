@@ -14,7 +14,7 @@ Every operation is overflow-safe: values are clamped to ``[-BIG, BIG]`` (BIG = 1
 "infinity") after every operation, and a NaN becomes 0, so the law never returns NaN or inf.
 
 This module is the one implementation of the operations and of the evaluation; it serves the
-:class:`NetworkOperatorController` FMU and ``synthesis.methods.network_operator.NetworkOperator``.
+:class:`NetworkOperatorController` FMU and ``synthesis.methods.law.NetworkOperator``.
 
 References
 ----------
@@ -53,7 +53,7 @@ class MatrixError(ValueError):
     """A network-operator matrix or its node map is malformed."""
 
 
-# -- the operations: one table, rendered to Python here and to C by synthesis.native ----------
+# -- the operations: one table, rendered to Python here and to C by synthesis.fmi.native ----------
 #
 # Every operation is ONE expression in a small language -- Python's expression syntax limited
 # to the operand names (z; a, b), float literals, the named constants of CONSTANTS, + - * /,
@@ -299,7 +299,7 @@ PAPER_Q = (2.259375, 1.953125)
 
 
 #: Descriptions (unit in brackets) of the controller's variables; the native law FMUs of
-#: synthesis.native declare the same names with the same descriptions, so one swaps in for the
+#: synthesis.fmi.native declare the same names with the same descriptions, so one swaps in for the
 #: other.
 DESCRIPTIONS = {
     "x": "controller input [1]",

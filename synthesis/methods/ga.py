@@ -26,7 +26,7 @@ Departures from the lab algorithm (the authors' Free-Pascal programs), each for 
   epoch re-reads every variation list against the new basis and would otherwise lose good laws;
   the result of a run is the archive;
 * optional parameter refinement (``refine_evals > 0``): after the initial population and after
-  every epoch, CMA-ES (:class:`synthesis.methods.policy_search.CMA`) tunes the parameters q of
+  every epoch, CMA-ES (:class:`synthesis.methods.baselines.CMA`) tunes the parameters q of
   the best members by a single-objective target (distinct structures), on the Gray code's grid;
   the best refined q replaces the member's, and a structure refined again continues its
   CMA-ES.  The Gray-coded bit flips search q poorly on the rugged landscapes of closed-loop
@@ -541,7 +541,7 @@ class VariationalGA:
         return hashlib.sha1(self.matrix(m).tobytes()).hexdigest()
 
     def _new_cma(self, q, seed):
-        from descent_fmus.synthesis.methods.policy_search import CMA, IPOP_SIGMA, IPOP_STALL
+        from descent_fmus.synthesis.methods.baselines import CMA, IPOP_SIGMA, IPOP_STALL
         p = self.params
         step = (p.hi - p.lo) / float(1 << p.bits_per)
         grid = lambda x: p.decode(p.encode(x))  # noqa: E731  (what the Gray code can hold)

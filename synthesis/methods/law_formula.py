@@ -198,7 +198,7 @@ def _shorter(a, b):
 
 
 def readable(law, digits: int = 6) -> Readable:
-    """The readable form of a :class:`~synthesis.methods.network_operator.NetworkOperator`."""
+    """The readable form of a :class:`~synthesis.methods.law.NetworkOperator`."""
     import sympy
 
     unary, binary = _sym_ops()

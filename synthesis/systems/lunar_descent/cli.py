@@ -6,7 +6,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from descent_fmus.synthesis.cli_common import CliError, add_common_options, emit, fmu_folder
+from descent_fmus.synthesis.cli.common import CliError, add_common_options, emit, fmu_folder
 
 __all__ = ["add_commands", "run_report", "HV_REF"]
 
@@ -42,7 +42,7 @@ def add_commands(sub) -> None:
 
 
 def _load_law(path, row: int = 0):
-    from descent_fmus.synthesis.methods.network_operator import LawFileError, NetworkOperator
+    from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
     try:
         data = json.loads(Path(path).read_text())
         if isinstance(data, list):            # a pareto.json: one law per row

@@ -21,9 +21,9 @@ import numpy as np
 
 from descent_fmus.models.integrators import CRASHED, REACHED
 from descent_fmus.models.lunar_descent import T_PLUS, U1_BOUNDS, U2_BOUNDS, DescentParams
-from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.problem import Budget, Report, SynthesisProblem
+from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.problems.contract import Budget, Report, SynthesisProblem
 
 __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "INITIAL_SET", "initial_states", "per_state",
            "totals", "objectives", "synthesis_basic_law", "basic_law_start_values", "problems",

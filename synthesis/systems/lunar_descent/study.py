@@ -1,7 +1,7 @@
 """S5 flights: a law on the initial-state set and on a seeded dispersion, through the FMUs.
 
 Every number of :func:`study` comes from the closed loop of the ``LunarDescent`` plant FMU and
-the generic ``NetworkOperatorController`` FMU (synthesis.cosim), the same path as the GA's
+the generic ``NetworkOperatorController`` FMU (synthesis.fmi.closed_loop), the same path as the GA's
 evaluator.  :func:`fly_in_process` flies the same equations in-process (tests, quick scans).
 
 References
@@ -17,8 +17,8 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.lunar_descent import DescentParams
-from descent_fmus.synthesis.cosim import ClosedLoop
-from descent_fmus.synthesis.dispersion import Box
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.problems.dispersion import Box
 from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.systems.lunar_descent.problems import (HF, STEP, VF, WIRING,
                                                                     initial_states, per_state,
@@ -35,7 +35,7 @@ DISPERSION = {"theta0": (math.radians(89.0), math.radians(91.0)), "h0": (17_500.
 
 
 def dispersion_box() -> Box:
-    """The dispersion set :data:`DISPERSION` as a :class:`~synthesis.dispersion.Box`."""
+    """The dispersion set :data:`DISPERSION` as a :class:`~synthesis.problems.dispersion.Box`."""
     return Box.from_bounds(DISPERSION)
 
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 
 from descent_fmus.models.lunar_landing import LanderParams
-from descent_fmus.synthesis.cli_common import (CliError, add_common_options,
+from descent_fmus.synthesis.cli.common import (CliError, add_common_options,
                                                add_parameter_options, emit, fmu_folder,
                                                int_at_least, nonnegative_int,
                                                parameter_overrides, positive_float)

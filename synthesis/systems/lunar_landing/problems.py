@@ -21,7 +21,7 @@ from __future__ import annotations
 
 from descent_fmus.models.lunar_landing import STEP, LanderParams, optimal_landing
 from descent_fmus.models.lunar_landing import rhs as lander_rhs
-from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
+from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 from descent_fmus.synthesis.methods.shooting import BangBang, PontryaginProblem
 
 __all__ = ["landing_problem", "paper_guess", "moon_landing_problem", "MOON", "PAPER_GUESSES",

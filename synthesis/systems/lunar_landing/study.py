@@ -27,7 +27,7 @@ from descent_fmus.models.integrators import REACHED
 from descent_fmus.models.lunar_landing import (STEP, LanderIntegrator, LanderParams,
                                                OptimalLanding, constant_flow_state,
                                                optimal_landing)
-from descent_fmus.synthesis.dispersion import Box
+from descent_fmus.synthesis.problems.dispersion import Box
 from descent_fmus.synthesis.methods.shooting import ShootingError, ShootingResult, solve
 from descent_fmus.synthesis.plotting import save_figure
 
@@ -298,7 +298,7 @@ class LandingLoops:
     RECORD = ("h", "V", "m", "fuel")
 
     def __init__(self, fmu_dir=None, nominal: LanderParams = LanderParams()):
-        from descent_fmus.synthesis.cosim import ClosedLoop
+        from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
         from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
         from descent_fmus.synthesis.systems.lunar_landing.problems import (FEEDBACK_WIRING,
                                                                            PROGRAM_WIRING,

@@ -1,7 +1,7 @@
 """``descent-fmus mars fly``: the S2 Mars descent with and without the law, through the FMUs."""
 from __future__ import annotations
 
-from descent_fmus.synthesis.cli_common import (CliError, add_common_options,
+from descent_fmus.synthesis.cli.common import (CliError, add_common_options,
                                                add_parameter_options, emit, fmu_folder,
                                                parameter_overrides)
 

@@ -1,6 +1,6 @@
 """Fly the S2 Mars closed loops through the FMUs, summarise and plot them.
 
-One :class:`~descent_fmus.synthesis.cosim.ClosedLoop` (plant FMU + MarsBellmanController FMU) is
+One :class:`~descent_fmus.synthesis.fmi.closed_loop.ClosedLoop` (plant FMU + MarsBellmanController FMU) is
 loaded and reset per run: the controlled flight, the uncontrolled one (``u_max = 0``: the same
 controller FMU outputs u = 0) and the paper's printed formula (``formula = 1``) are three runs
 of the same two FMUs with other start values.
@@ -19,7 +19,7 @@ import numpy as np
 
 from descent_fmus.models.controllers.mars_bellman import CONSISTENT, PAPER
 from descent_fmus.models.integrators import REACHED, STATUS_NAMES
-from descent_fmus.synthesis.cosim import ClosedLoop, ClosedLoopResult
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, ClosedLoopResult
 from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.plotting import save_figure
 from descent_fmus.synthesis.systems.mars.wiring import WIRING

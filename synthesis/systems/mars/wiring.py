@@ -14,7 +14,7 @@ from dataclasses import asdict
 
 from descent_fmus.models.controllers.mars_bellman import MarsBellmanParams
 from descent_fmus.models.mars import STEP, T_MAX
-from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
+from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 
 __all__ = ["WIRING", "WIRING_6DOF", "WIRING_6DOF_INSTANT", "LOOP_PARAMETERS",
            "controller_defaults"]

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from descent_fmus.synthesis.cli_common import (CliError, add_common_options, emit, finite_float,
+from descent_fmus.synthesis.cli.common import (CliError, add_common_options, emit, finite_float,
                                                fmu_folder, positive_float, positive_int)
 
 __all__ = ["add_commands"]
@@ -84,7 +84,7 @@ def add_commands(sub) -> None:
 
 
 def run_fly(args) -> int:
-    from descent_fmus.synthesis.methods.network_operator import LawFileError, NetworkOperator
+    from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
     from descent_fmus.synthesis.systems.reentry.flight import fly, plot_flight
 
     try:
@@ -135,7 +135,7 @@ def run_bound(args) -> int:
 
 
 def run_robustness(args) -> int:
-    from descent_fmus.synthesis.methods.network_operator import LawFileError, NetworkOperator
+    from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
     from descent_fmus.synthesis.systems.reentry.bound import Program
     from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
                                                                       robust_study, table_lines)

@@ -5,8 +5,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
-from descent_fmus.synthesis.cosim import ClosedLoop, ClosedLoopResult
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, ClosedLoopResult
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.plotting import save_figure
 from descent_fmus.synthesis.systems.reentry import problems as spec

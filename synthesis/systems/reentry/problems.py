@@ -21,10 +21,10 @@ import numpy as np
 from descent_fmus.models.controllers.network_operator import PAPER_Q
 from descent_fmus.models.integrators import REACHED
 from descent_fmus.models.reentry import T_PLUS, ReentryParams
-from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.methods.policy_search import Target
-from descent_fmus.synthesis.problem import Budget, Report, SynthesisProblem
+from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.baselines import Target
+from descent_fmus.synthesis.problems.contract import Budget, Report, SynthesisProblem
 
 __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "plant_values", "objectives", "problems",
            "synthesis_basic_law", "NOT_LANDED_PENALTY", "DIVERGED_J1", "ON_TARGET",
@@ -135,7 +135,7 @@ def _template(scale, offset=(0.0, 0.0)) -> NetworkOperator:
 def _paper_cubic(template: NetworkOperator, size: int | None = None) -> NetworkOperator:
     """A cubic polynomial in the template's inputs s_i = k_i (y_i - o_i) at the paper's basic
     law q1 y1 + q2 y2 = (q1 o1 + q2 o2) + (q1 / k1) s1 + (q2 / k2) s2 (the rest 0)."""
-    from descent_fmus.synthesis.methods.policy_search import polynomial_law
+    from descent_fmus.synthesis.methods.baselines import polynomial_law
     (k1, k2), (o1, o2) = template.input_scale, template.input_offset
     q = [PAPER_Q[0] * o1 + PAPER_Q[1] * o2, PAPER_Q[0] / k1, PAPER_Q[1] / k2] + [0.0] * 7
     return polynomial_law(template, 3, q, size=size)
@@ -166,7 +166,7 @@ def baseline_structures() -> dict:
     ``basic`` the paper's basic law (its two gains), ``polynomial`` the basic solution's cubic
     polynomial (10 coefficients) in the inputs (10 y1, 2 y2), ``tanh`` a 2-3-1 tanh network (13 weights, seeded
     random start)."""
-    from descent_fmus.synthesis.methods.policy_search import tanh_network_law
+    from descent_fmus.synthesis.methods.baselines import tanh_network_law
     return {"basic": NetworkOperator.basic_law(),
             "polynomial": _paper_cubic(_template(INPUT_SCALE)),
             "tanh": tanh_network_law(_template(INPUT_SCALE), 3, seed=0)}

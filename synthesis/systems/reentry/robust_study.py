@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
-from descent_fmus.synthesis.cosim import ClosedLoop
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry import sensed
 

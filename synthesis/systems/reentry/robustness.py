@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.reentry import ReentryParams
-from descent_fmus.synthesis.cosim import ClosedLoop
-from descent_fmus.synthesis.dispersion import Box
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.problems.dispersion import Box
 from descent_fmus.synthesis.systems.reentry import problems as spec
 
 __all__ = ["dispersion_box", "dispersion_samples", "dispersion_study", "plot_study"]
@@ -28,7 +28,7 @@ ABSOLUTE = {"V0": 50.0, "beta0": math.radians(0.03)}
 
 
 def dispersion_box(base: ReentryParams = ReentryParams()) -> Box:
-    """The dispersion set around ``base`` as a :class:`~synthesis.dispersion.Box`."""
+    """The dispersion set around ``base`` as a :class:`~synthesis.problems.dispersion.Box`."""
     return Box.around(asdict(base), relative=RELATIVE, absolute=ABSOLUTE)
 
 

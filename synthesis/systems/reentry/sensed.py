@@ -14,7 +14,7 @@ at :data:`MISS_CAP`, so a flight that does not land counts as a large but finite
 a law flies the nominal flight first, then the first :data:`RACE_SIZES` samples, and flies on
 only if it passes :func:`proceed`; a law stopped early gets ``RACE_OFFSET`` per skipped stage
 added to its J2, which ranks it behind every law that flew the whole set.  Each problem flies
-on the faster of the Python master and the closed-loop container FMU (``synthesis.runners``;
+on the faster of the Python master and the closed-loop container FMU (``synthesis.fmi.container_loop``;
 :data:`SENSED_CONTAINER`, :data:`PLAIN_CONTAINER`).
 """
 from __future__ import annotations
@@ -26,10 +26,10 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.reentry import T_PLUS, ReentryParams
-from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.problem import Budget, Report, SynthesisProblem
-from descent_fmus.synthesis.runners import Race, Runner
+from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.problems.contract import Budget, Report, SynthesisProblem
+from descent_fmus.synthesis.fmi.container_loop import Race, Runner
 from descent_fmus.synthesis.systems.reentry import problems as spec
 
 __all__ = ["SENSED_WIRING", "NPC_WIRING", "SENSED_LOOP_PARAMETERS", "NPC_LOOP_PARAMETERS",
@@ -211,7 +211,7 @@ def _start_coefficients(nx: int, degree: int) -> list:
     """The paper's basic law (gains q1/10, q2/2 on the scaled inputs) and, with y3, the
     first-order compensation of the drag factor: u = -y3 (coefficient -1/5 on 5 y3)."""
     from descent_fmus.models.controllers.network_operator import PAPER_Q
-    from descent_fmus.synthesis.methods.policy_search import monomials
+    from descent_fmus.synthesis.methods.baselines import monomials
     gains = {0: PAPER_Q[0] / SENSED_INPUT_SCALE[0], 1: PAPER_Q[1] / SENSED_INPUT_SCALE[1],
              2: -1.0 / SENSED_INPUT_SCALE[2]}
     q = [0.0]
@@ -225,7 +225,7 @@ def sensed_basic_law(nx: int = 3) -> NetworkOperator:
     nodes (a cubic in three inputs needs 20 parameters, more than the controller FMU holds), the
     paper's basic law plus u = -y3 as its start; identity nodes up to 32 for the variations.
     With ``nx = 2`` (y1, y2 only) the same construction without y3 (degree 3 fits)."""
-    from descent_fmus.synthesis.methods.policy_search import polynomial_law
+    from descent_fmus.synthesis.methods.baselines import polynomial_law
     degree = 2 if nx == 3 else 3
     return polynomial_law(_template(nx), degree, _start_coefficients(nx, degree), size=32)
 
@@ -233,12 +233,12 @@ def sensed_basic_law(nx: int = 3) -> NetworkOperator:
 def sensed_baselines() -> dict:
     """Fixed structures of the CMA-ES baseline (``--method cma-polynomial``): the basic
     solution's polynomial, only its coefficients tuned."""
-    from descent_fmus.synthesis.methods.policy_search import polynomial_law
+    from descent_fmus.synthesis.methods.baselines import polynomial_law
     return {"polynomial": polynomial_law(_template(3), 2, _start_coefficients(3, 2))}
 
 
 def sensed_y12_baselines() -> dict:
-    from descent_fmus.synthesis.methods.policy_search import polynomial_law
+    from descent_fmus.synthesis.methods.baselines import polynomial_law
     return {"polynomial": polynomial_law(_template(2), 3, _start_coefficients(2, 3))}
 
 
@@ -372,7 +372,7 @@ class GuidedReport(Report):
 def problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
              seed: int = SYNTHESIS_SEED) -> tuple:
     """The robust problems over the synthesis set (see the module docstring)."""
-    from descent_fmus.synthesis.methods.policy_search import Target
+    from descent_fmus.synthesis.methods.baselines import Target
     params = synthesis_set(samples, seed)
     states = tuple(spec.plant_values(p) for p in params)
     objectives = RobustObjectives(statistic_name, samples)

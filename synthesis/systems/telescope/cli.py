@@ -6,7 +6,7 @@ import math
 from pathlib import Path
 
 from descent_fmus.models.telescope import T_DEFAULT, TARGET_W, TelescopeParams
-from descent_fmus.synthesis.cli_common import (CliError, add_common_options,
+from descent_fmus.synthesis.cli.common import (CliError, add_common_options,
                                                add_parameter_options, emit, finite_float,
                                                fmu_folder, int_at_least, parameter_overrides,
                                                positive_float, positive_int)

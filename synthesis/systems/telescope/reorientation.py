@@ -315,7 +315,7 @@ def replay(ro: Reorientation, fmu_dir=None, step: float | None = None) -> dict:
     parameters, from ``fmu_dir`` (default: :func:`synthesis.paths.fmu_dir`).
     """
     from descent_fmus.models.controllers.program_table import program_values
-    from descent_fmus.synthesis.cosim import ClosedLoop
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
     from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
     from descent_fmus.synthesis.systems.telescope.wiring import PLANTS, plant_values, wiring
 

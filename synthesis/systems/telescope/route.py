@@ -259,7 +259,7 @@ def replay_route(rt: RouteTrace, fmu_dir=None, step: float | None = None) -> dic
     Telescope with the tracer's parameters and initial state) with fmpy; the deviation from the
     route at every communication point and the end error against the in-process trace."""
     from descent_fmus.models.controllers.program_table import program_values
-    from descent_fmus.synthesis.cosim import ClosedLoop
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
     from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
     from descent_fmus.synthesis.systems.telescope.wiring import plant_values, wiring
 

@@ -18,7 +18,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from descent_fmus.models.telescope import INERTIA_NAMES, T_DEFAULT
-from descent_fmus.synthesis.cosim import STATUS_STOP, Wiring
+from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 
 __all__ = ["STEP", "PLANTS", "PROGRAMS_FILE", "wiring", "WIRING", "FLEXIBLE_WIRING",
            "plant_values", "stored_programs", "rigid_program", "flexible_program"]

@@ -24,7 +24,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from descent_fmus.synthesis.cli_common import (CliError, OneLineParser, add_common_options,
+from descent_fmus.synthesis.cli.common import (CliError, OneLineParser, add_common_options,
                                                emit, fmu_folder, nonnegative_int, positive_int)
 
 __all__ = ["main", "build_parser"]
@@ -38,9 +38,9 @@ def build_parser() -> argparse.ArgumentParser:
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND",
                             parser_class=OneLineParser)
     _add_synthesize(sub)
-    from descent_fmus.synthesis.law_export import add_export_law_command
+    from descent_fmus.synthesis.fmi.law_files import add_export_law_command
     add_export_law_command(sub)
-    from descent_fmus.synthesis.fine_output import add_fine_output_command
+    from descent_fmus.synthesis.cli.fine_output import add_fine_output_command
     add_fine_output_command(sub)
     p = sub.add_parser("problems", help="list the registered synthesis problems and systems")
     add_common_options(p, fmus=False)
@@ -124,7 +124,7 @@ def _add_synthesize(sub) -> None:
 
 def load_problem(args):
     """The problem named on the command line or given as a file (CliError otherwise)."""
-    from descent_fmus.synthesis.problem_file import ProblemFileError, load_problem_file
+    from descent_fmus.synthesis.problems.files import ProblemFileError, load_problem_file
     from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
     if (args.name is None) == (args.problem is None):
         raise CliError("give a registered problem name or --problem FILE (one of them); "
@@ -161,8 +161,8 @@ def with_statistic(problem, name):
 def _law_export(args):
     """What ``synthesize`` exports per Pareto law (``--no-export``, ``--export``,
     ``--law-fmu``); a compiler missing for ``--law-fmu native`` is a user error."""
-    from descent_fmus.synthesis.law_export import LawExport, choose_law_fmu
-    from descent_fmus.synthesis.native.build import CompilerNotFoundError
+    from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu
+    from descent_fmus.synthesis.fmi.native.build import CompilerNotFoundError
     if args.no_export:
         return False
     try:
@@ -173,9 +173,9 @@ def _law_export(args):
 
 
 def run_synthesize(args) -> int:
-    from descent_fmus.synthesis.evaluator import SchedulerError, SystematicFailure
+    from descent_fmus.synthesis.run.evaluation import SchedulerError, SystematicFailure
     from descent_fmus.synthesis.paths import FMUNotFoundError
-    from descent_fmus.synthesis.synthesize import RunDirError, run_synthesis
+    from descent_fmus.synthesis.run.loop import RunDirError, run_synthesis
 
     problem = with_statistic(load_problem(args), args.statistic)
     try:
@@ -187,7 +187,7 @@ def run_synthesize(args) -> int:
                                       refine_basis=args.refine_basis)
     except ValueError as exc:
         raise CliError(str(exc)) from None
-    from descent_fmus.synthesis.synthesize import methods
+    from descent_fmus.synthesis.run.loop import methods
     if args.method not in methods(problem):
         raise CliError(f"unknown method {args.method!r} for problem {problem.name}; available: "
                        f"{', '.join(methods(problem))}")
@@ -242,7 +242,7 @@ def run_problems(args) -> int:
 
 
 def run_info(args) -> int:
-    from descent_fmus.synthesis.docs import system_info
+    from descent_fmus.synthesis.cli.info import system_info
     from descent_fmus.synthesis.registry import get_system
     try:
         system = get_system(args.system)
@@ -258,8 +258,8 @@ def main(argv=None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     from descent_fmus.models.controllers.network_operator import MatrixError
     from descent_fmus.models.params import ParameterError
-    from descent_fmus.synthesis.cosim import FMUError
-    from descent_fmus.synthesis.interrupt import RunInterrupted
+    from descent_fmus.synthesis.fmi.closed_loop import FMUError
+    from descent_fmus.synthesis.run.signals import RunInterrupted
 
     import faulthandler
     if not faulthandler.is_enabled():

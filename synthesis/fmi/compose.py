@@ -24,14 +24,14 @@ from xml.etree import ElementTree as ET
 import attrs
 from fmpy import read_model_description
 
-from descent_fmus.synthesis.cosim import Wiring
+from descent_fmus.synthesis.fmi.closed_loop import Wiring
 from descent_fmus.synthesis.paths import require_fmu
 
 __all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp",
            "add_units", "add_status_wrapper", "refine_container"]
 
 #: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
-MODELS = Path(__file__).resolve().parent.parent / "models"
+MODELS = Path(__file__).resolve().parents[2] / "models"
 if not (MODELS / "fmu_support.py").is_file():      # installed: the sibling package
     import descent_fmus.models as _models
     MODELS = Path(_models.__file__).parent
@@ -111,9 +111,9 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
 
 @functools.cache
 def _status_library() -> bytes | None:
-    """The status wrapper (``synthesis/native/c/pythonfmu_status.c``) compiled for this
+    """The status wrapper (``synthesis/fmi/native/c/pythonfmu_status.c``) compiled for this
     machine (once per process), or None where it cannot be (no C compiler, not linux64)."""
-    from descent_fmus.synthesis.native.build import (NativeBuildError, compile_sources,
+    from descent_fmus.synthesis.fmi.native.build import (NativeBuildError, compile_sources,
                                                      find_compiler, platform_folder)
     if platform_folder() != ("linux64", ".so") or find_compiler() is None:
         return None
@@ -146,7 +146,7 @@ def add_status_wrapper(fmu: Path) -> Path:
 
     pythonfmu reports a parameter the FMU rejects in ``fmi2ExitInitializationMode`` as
     fmi2Fatal; FMI 2.0 calls it fmi2Error.  The linux64 binary becomes the status wrapper
-    (``synthesis/native/c/pythonfmu_status.c``), which forwards every call to the pythonfmu
+    (``synthesis/fmi/native/c/pythonfmu_status.c``), which forwards every call to the pythonfmu
     binary, renamed ``<identifier>.pythonfmu.so`` beside it, and reports fmi2Fatal of the
     set-up calls as fmi2Error.  Without a C compiler the FMU is left as pythonfmu built it.
     """
@@ -184,7 +184,7 @@ def _rewrite_model_description(fmu: Path, edit) -> Path:
 def add_units(fmu: Path) -> Path:
     """Write the units of an FMU's variables into its model description (see
     :func:`units_into_model_description`)."""
-    from descent_fmus.synthesis.units import units_into_model_description
+    from descent_fmus.synthesis.fmi.units import units_into_model_description
     return _rewrite_model_description(Path(fmu), units_into_model_description)
 
 
@@ -248,7 +248,7 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
         (container name, "plant" | "controller", component variable) parameters to expose.
     starts : bool
         False: the exposed parameters carry no start value -- a container for evaluation only
-        (``synthesis.runners``), whose reset then leaves them at the components' own defaults
+        (``synthesis.fmi.container_loop``), whose reset then leaves them at the components' own defaults
         instead of setting each one again (fmpy's container sets every start value on reset).
     """
     from fmpy.container_fmu.cli import create_container_fmu
@@ -396,7 +396,7 @@ def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path)
             "controller": set(b for _, b in wiring.to_controller) |
                           set(a for a, _ in wiring.to_plant)}
     used["plant"] |= {v for _, r, v in wiring.exposed if r == "plant"}
-    from descent_fmus.synthesis.units import base_unit
+    from descent_fmus.synthesis.fmi.units import base_unit
     units = set()
     for role, path in (("plant", plant_fmu), ("controller", controller_fmu)):
         md = read_model_description(str(path))

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
 
 __all__ = ["Target", "CMA", "IPOP_SIGMA", "IPOP_STALL", "PolicySearch", "polynomial_law", "tanh_network_law", "monomials",
            "NormalSource"]

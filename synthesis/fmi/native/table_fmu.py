@@ -18,8 +18,8 @@ import math
 from pathlib import Path
 
 from descent_fmus.models.fmu_support import SAMPLE_PERIOD_DESCRIPTION
-from descent_fmus.synthesis.native.build import Variable, build_fmu
-from descent_fmus.synthesis.native.ccode import c_identifier
+from descent_fmus.synthesis.fmi.native.build import Variable, build_fmu
+from descent_fmus.synthesis.fmi.native.ccode import c_identifier
 
 __all__ = ["build_program_fmu", "build_step_program_fmu", "landing_program_fmu",
            "hold_program_fmu", "program_of_start_values"]

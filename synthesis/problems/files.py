@@ -34,7 +34,7 @@ ends, the initial states, the objectives and the basic law.  The format, key by 
 
     [[objectives]]                        # one table per objective (all minimised)
     name = "miss"
-    flight = "abs(final(v)) + 10 * abs(final(h))"      # per flight (synthesis.expressions)
+    flight = "abs(final(v)) + 10 * abs(final(h))"      # per flight (synthesis.problems.expressions)
     over_states = "sum"                   # sum | mean | max over the initial states
     unmet_stop_penalty = 100.0            # added for a flight the stop condition never ended
     penalty = 1e6                         # a law whose evaluation fails gets this
@@ -68,9 +68,9 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from descent_fmus.synthesis.cosim import Stop, Wiring
-from descent_fmus.synthesis.expressions import Expression, ExpressionError, reduce_signal
-from descent_fmus.synthesis.problem import PAPER_BINARY, PAPER_UNARY, Budget, SynthesisProblem
+from descent_fmus.synthesis.fmi.closed_loop import Stop, Wiring
+from descent_fmus.synthesis.problems.expressions import Expression, ExpressionError, reduce_signal
+from descent_fmus.synthesis.problems.contract import PAPER_BINARY, PAPER_UNARY, Budget, SynthesisProblem
 
 try:
     import tomllib
@@ -278,7 +278,7 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         One line naming the file, the key and what is wrong.
     """
     from descent_fmus.models.controllers.network_operator import NQ_MAX, NU_MAX, NX_MAX
-    from descent_fmus.synthesis.methods.network_operator import (LawFileError, MatrixError,
+    from descent_fmus.synthesis.methods.law import (LawFileError, MatrixError,
                                                                   NetworkOperator)
     from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 
@@ -397,7 +397,7 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
                 raise rd.error(f"initial_states.states[{k + 1}]", "must be a table")
             states.append(settable_values(s, f"initial_states.states[{k + 1}]"))
     else:
-        from descent_fmus.synthesis.dispersion import METHODS, Box
+        from descent_fmus.synthesis.problems.dispersion import METHODS, Box
         box = rd.table(init, "initial_states.box")
         if not box:
             raise rd.error("initial_states.box", "the box is empty")

@@ -1,6 +1,6 @@
 """Helpers every ``descent-fmus`` command uses: user errors, ``--json``, common options.
 
-Kept apart from :mod:`synthesis.cli` (the entry point) so that the systems' command modules
+Kept apart from :mod:`synthesis.cli.main` (the entry point) so that the systems' command modules
 import it without importing the entry point (no import cycle).
 """
 from __future__ import annotations

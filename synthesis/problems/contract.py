@@ -1,13 +1,13 @@
 """What a network-operator synthesis solves: :class:`SynthesisProblem`, its :class:`Budget` and
 :class:`Report`.
 
-A problem names the closed loop (a :class:`~synthesis.cosim.Wiring` of a plant FMU and the
+A problem names the closed loop (a :class:`~synthesis.fmi.closed_loop.Wiring` of a plant FMU and the
 generic ``NetworkOperatorController`` FMU), the initial states every candidate law is flown from,
 the objectives computed from those flights, the basic law the variational GA starts from and the
 budget of a default run.  The evaluator needs nothing else: it knows no plant.
 
 Problems come from two places: the systems of this package (``synthesis/systems/<stem>/``) and
-declarative problem files for any FMI 2.0 co-simulation plant (:mod:`synthesis.problem_file`).
+declarative problem files for any FMI 2.0 co-simulation plant (:mod:`synthesis.problems.files`).
 A problem is sent to worker processes as it is, so everything in it must pickle (module-level
 functions, plain objects).
 """
@@ -19,9 +19,9 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
-from descent_fmus.synthesis.cosim import ClosedLoopResult, Wiring
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, Wiring
 from descent_fmus.synthesis.methods.ga import GAConfig
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
 
 __all__ = ["Budget", "Report", "SynthesisProblem", "ObjectiveFunction"]
 
@@ -139,14 +139,14 @@ class SynthesisProblem:
         Where the problem comes from (a registered system, or a problem file and its hash).
     target : Target or None
         The single objective of CMA-ES (parameter refinement inside the GA, fixed-structure
-        baselines), e.g. J1 subject to J2 < 1 km (:class:`synthesis.methods.policy_search.Target`).
+        baselines), e.g. J1 subject to J2 < 1 km (:class:`synthesis.methods.baselines.Target`).
     baselines : callable or None
         ``() -> {name: NetworkOperator}``: fixed law structures whose parameters CMA-ES tunes
         (``synthesize --method cma-NAME``), the comparison for the network-operator search.
     runner : Runner or None
-        How a law is flown (:class:`synthesis.runners.Runner`: the closed-loop container FMU
+        How a law is flown (:class:`synthesis.fmi.container_loop.Runner`: the closed-loop container FMU
         instead of the Python master, racing over the initial states); None = every initial
-        state through :class:`~synthesis.cosim.ClosedLoop`.
+        state through :class:`~synthesis.fmi.closed_loop.ClosedLoop`.
     """
 
     name: str

@@ -1,11 +1,11 @@
 """What ends a synthesis run early, and what it leaves: signals, systematic failures, full disks.
 
-:func:`guarded` wraps :func:`synthesis.synthesize.run_synthesis`:
+:func:`guarded` wraps :func:`synthesis.run.loop.run_synthesis`:
 
 * SIGTERM / SIGINT (a batch system preempting the job, Ctrl-C) request a stop
-  (:mod:`synthesis.interrupt`); the run abandons the generation in progress -- the checkpoint of
+  (:mod:`synthesis.run.signals`); the run abandons the generation in progress -- the checkpoint of
   the last finished generation is already on disk (written atomically after every generation) --
-  stops its workers and raises :class:`~synthesis.interrupt.RunInterrupted` saying where the run
+  stops its workers and raises :class:`~synthesis.run.signals.RunInterrupted` saying where the run
   stands.  ``descent-fmus`` prints that in one line with the command that resumes it and exits
   with 128 + the signal number (130 for SIGINT, 143 for SIGTERM).
 * Any other exception (a systematic evaluation failure, a full disk, a bug) also stops the
@@ -29,7 +29,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from descent_fmus.synthesis.interrupt import RunInterrupted, graceful_signals
+from descent_fmus.synthesis.run.signals import RunInterrupted, graceful_signals
 
 __all__ = ["guarded", "DiskSpaceError", "check_export_space", "export_bytes_per_law"]
 
@@ -131,7 +131,7 @@ def guarded(run):
 
     @functools.wraps(run)
     def wrapper(*args, **kwargs):
-        from descent_fmus.synthesis.evaluator import Evaluator
+        from descent_fmus.synthesis.run.evaluation import Evaluator
         bound = sig.bind(*args, **kwargs)
         out = Path(bound.arguments["out"])
         resume = bound.arguments.get("resume", False)

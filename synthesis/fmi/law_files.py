@@ -2,7 +2,7 @@
 
 :func:`export_law_files` writes ``law.json`` (the law and its readable form), ``law.h`` /
 ``law.c`` (a plain C function, no FMI, for flight software), the law FMU -- native (compiled C,
-no Python in the host: :mod:`synthesis.native`) where a C compiler exists, else the pythonfmu
+no Python in the host: :mod:`synthesis.fmi.native`) where a C compiler exists, else the pythonfmu
 ``NetworkOperatorController`` with the law as defaults -- and, if asked, the closed-loop FMU and
 SSP of the law's problem, built around that law FMU.  ``descent-fmus export-law`` and a
 synthesis run's export (:class:`LawExport`) use it.
@@ -60,7 +60,7 @@ def choose_law_fmu(law_fmu: str = "auto") -> tuple[str, str]:
     CompilerNotFoundError
         ``"native"`` asked and no C compiler found.
     """
-    from descent_fmus.synthesis.native.build import CompilerNotFoundError, find_compiler
+    from descent_fmus.synthesis.fmi.native.build import CompilerNotFoundError, find_compiler
     if law_fmu == "python":
         return "python", ""
     if find_compiler() is not None:
@@ -140,9 +140,9 @@ def export_law_files(law, dest, law_fmu: str = "auto", fmu_dir=None,
         ``law_fmu="native"`` and no C compiler.
     NativeBuildError, FMUNotFoundError, ValueError
     """
-    from descent_fmus.synthesis.export import closed_loop_fmu, with_defaults, write_ssp
-    from descent_fmus.synthesis.native.ccode import c_identifier
-    from descent_fmus.synthesis.native.law_fmu import (DEFAULT_IDENTIFIER, build_law_fmu,
+    from descent_fmus.synthesis.fmi.compose import closed_loop_fmu, with_defaults, write_ssp
+    from descent_fmus.synthesis.fmi.native.ccode import c_identifier
+    from descent_fmus.synthesis.fmi.native.law_fmu import (DEFAULT_IDENTIFIER, build_law_fmu,
                                                        law_sources)
     kind, note = choose_law_fmu(law_fmu)
     if kind == "native" and problem is not None and \
@@ -189,7 +189,7 @@ def export_law_files(law, dest, law_fmu: str = "auto", fmu_dir=None,
 # -- descent-fmus export-law ---------------------------------------------------------------------
 def add_export_law_command(sub) -> None:
     """``descent-fmus export-law LAW.json --native|--python --out DIR``."""
-    from descent_fmus.synthesis.cli_common import add_common_options
+    from descent_fmus.synthesis.cli.common import add_common_options
     p = sub.add_parser("export-law", help="a law file as a native FMU (C, no Python in the host) "
                        "or a pythonfmu FMU, with its readable form and law.h/law.c")
     p.add_argument("law", type=Path, metavar="LAW.json", help="a law file (law.json of a "
@@ -217,8 +217,8 @@ def add_export_law_command(sub) -> None:
 
 
 def _problem_of(args, doc: dict):
-    from descent_fmus.synthesis.cli_common import CliError, fmu_folder
-    from descent_fmus.synthesis.problem_file import ProblemFileError, load_problem_file
+    from descent_fmus.synthesis.cli.common import CliError, fmu_folder
+    from descent_fmus.synthesis.problems.files import ProblemFileError, load_problem_file
     from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
     if args.problem_file is not None:
         try:
@@ -242,9 +242,9 @@ def run_export_law(args) -> int:
     import sys
     import tempfile
 
-    from descent_fmus.synthesis.cli_common import CliError, emit, fmu_folder
-    from descent_fmus.synthesis.methods.network_operator import LawFileError, NetworkOperator
-    from descent_fmus.synthesis.native.build import CompilerNotFoundError, NativeBuildError
+    from descent_fmus.synthesis.cli.common import CliError, emit, fmu_folder
+    from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
+    from descent_fmus.synthesis.fmi.native.build import CompilerNotFoundError, NativeBuildError
     from descent_fmus.synthesis.paths import FMUNotFoundError
 
     out = args.out

@@ -7,7 +7,7 @@
 * ``checkpoint.json`` -- the GA state after every generation (``--resume`` continues from it);
 * ``pareto.csv``, ``pareto.json``, ``pareto.png`` -- the Pareto set (one law per row);
 * ``summary.json``    -- the report (counts, rates, the problem's own report fields);
-* ``laws/<k>/``       -- per Pareto law (:class:`synthesis.law_export.LawExport`): ``law.json``
+* ``laws/<k>/``       -- per Pareto law (:class:`synthesis.fmi.law_files.LawExport`): ``law.json``
   (with the readable form), ``law.h``/``law.c`` and the law FMU (native C where a compiler
   exists), and when asked the closed-loop container FMU and its SSP file.
 """
@@ -22,12 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.evaluator import Evaluator
-from descent_fmus.synthesis.law_export import LawExport, choose_law_fmu, readable_text
+from descent_fmus.synthesis.run.evaluation import Evaluator
+from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu, readable_text
 from descent_fmus.synthesis.methods.ga import GAConfig, GrayCodec, StructureCodec, VariationalGA
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
-from descent_fmus.synthesis.problem import Budget, SynthesisProblem
-from descent_fmus.synthesis.run_guard import check_export_space, guarded
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.problems.contract import Budget, SynthesisProblem
+from descent_fmus.synthesis.run.guard import check_export_space, guarded
 
 __all__ = ["RunDirError", "run_synthesis", "make_ga", "export_law", "plot_front", "WIDE_UNARY",
            "WIDE_BINARY"]
@@ -104,7 +104,7 @@ def methods(problem: SynthesisProblem) -> list:
                                                       else {})]
 
 
-@guarded        # signals, systematic failures, full disks: synthesis/run_guard.py
+@guarded        # signals, systematic failures, full disks: synthesis/run/guard.py
 def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
                   budget: Budget | None = None, workers: int = 1,
                   scheduler: str | None = None, resume: bool = False, wide_ops: bool = False,
@@ -125,7 +125,7 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
         Local worker processes, or the address of a Dask scheduler.
     export : bool or LawExport
         What to write per Pareto law: True = everything (law files, law FMU, closed-loop FMU and
-        SSP), False = nothing, or a :class:`~synthesis.law_export.LawExport`.
+        SSP), False = nothing, or a :class:`~synthesis.fmi.law_files.LawExport`.
     reference : bool
         Let the problem's report compute an expensive reference (e.g. the reentry bound).
     stop_after : int, optional
@@ -293,7 +293,7 @@ def _run_policy_search(problem, method, budget, evaluator, out, fmu_dir, resume,
                        export, reference, stop_after):
     """``--method cma-<baseline>``: CMA-ES over the parameters of a fixed structure, every
     candidate flown by the same evaluator; results written as for the network operator."""
-    from descent_fmus.synthesis.methods.policy_search import PolicySearch
+    from descent_fmus.synthesis.methods.baselines import PolicySearch
     structure = problem.baselines()[method[len("cma-"):]]
     search = PolicySearch(structure, problem.target, seed=budget.seed)
     archive, curve, ckpt, sim0 = _Archive(), [], out / CHECKPOINT, 0
@@ -344,7 +344,7 @@ def _run_policy_search(problem, method, budget, evaluator, out, fmu_dir, resume,
 def export_law(problem: SynthesisProblem, law: NetworkOperator, fmu_dir: Path, dest: Path,
                description: str = "", law_fmu: str = "auto", closed_loop: bool = True,
                identifier: str | None = None, extra: dict | None = None) -> dict:
-    """A law as files (:func:`synthesis.law_export.export_law_files`): ``law.json`` with its
+    """A law as files (:func:`synthesis.fmi.law_files.export_law_files`): ``law.json`` with its
     readable form, ``law.h``/``law.c``, the law FMU (native where a C compiler exists, else the
     pythonfmu controller with the law as defaults) and, with ``closed_loop``, the closed-loop
     FMU and SSP around that law FMU.
@@ -352,7 +352,7 @@ def export_law(problem: SynthesisProblem, law: NetworkOperator, fmu_dir: Path, d
     The plant parameters the problem sets per initial state stay parameters of the closed-loop
     FMU, so a law of a problem with several initial states can be flown from each of them.
     """
-    from descent_fmus.synthesis.law_export import export_law_files
+    from descent_fmus.synthesis.fmi.law_files import export_law_files
     out = export_law_files(law, dest, law_fmu=law_fmu, fmu_dir=fmu_dir, identifier=identifier,
                            description=description, problem=problem, closed_loop=closed_loop,
                            extra=dict({"problem": problem.name}, **(extra or {})))

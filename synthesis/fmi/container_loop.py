@@ -1,7 +1,7 @@
 """How a synthesis problem flies a candidate law: which closed-loop path, which flights.
 
 The evaluator flies every law from every initial state of its problem through
-:class:`synthesis.cosim.ClosedLoop` (the Python master stepping two FMUs).  A problem may carry a
+:class:`synthesis.fmi.closed_loop.ClosedLoop` (the Python master stepping two FMUs).  A problem may carry a
 :class:`Runner` instead (``SynthesisProblem.runner``) choosing
 
 * the **container path** (``container=True``): the closed loop as one fmpy container FMU --
@@ -29,7 +29,7 @@ from typing import Callable
 
 import numpy as np
 
-from descent_fmus.synthesis.cosim import ClosedLoop, ClosedLoopResult, FMUError, Wiring, load_slave
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, ClosedLoopResult, FMUError, Wiring, load_slave
 
 __all__ = ["Runner", "Race", "ContainerLoop"]
 
@@ -90,11 +90,11 @@ class _Extracted:
 class ContainerLoop:
     """Plant and controller as one fmpy container FMU, loaded once, reset per flight.
 
-    Same ``run`` interface as :class:`~synthesis.cosim.ClosedLoop` for final outputs (no
+    Same ``run`` interface as :class:`~synthesis.fmi.closed_loop.ClosedLoop` for final outputs (no
     recording): ``run(plant_values, controller_values)`` returns a
-    :class:`~synthesis.cosim.ClosedLoopResult` whose ``final`` holds every plant output.
+    :class:`~synthesis.fmi.closed_loop.ClosedLoopResult` whose ``final`` holds every plant output.
 
-    The container is built here from the two FMUs (``synthesis.export.closed_loop_fmu``) with
+    The container is built here from the two FMUs (``synthesis.fmi.compose.closed_loop_fmu``) with
     every plant output exposed and every parameter of both components exposed under its own name
     (``plant.NAME`` / ``controller.NAME`` if both components have it).
     """
@@ -102,7 +102,7 @@ class ContainerLoop:
     def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
         from fmpy import read_model_description
 
-        from descent_fmus.synthesis.export import closed_loop_fmu
+        from descent_fmus.synthesis.fmi.compose import closed_loop_fmu
         self.wiring = wiring
         mds = {"plant": read_model_description(str(plant_fmu)),
                "controller": read_model_description(str(controller_fmu))}

@@ -1,7 +1,7 @@
 """Closed-loop evaluation of network-operator laws through the FMUs only.
 
 A candidate law becomes start values of the generic ``NetworkOperatorController`` FMU; the plant
-FMU and the controller FMU fly in closed loop (synthesis.cosim) once per initial state of the
+FMU and the controller FMU fly in closed loop (synthesis.fmi.closed_loop) once per initial state of the
 problem; the problem's objective function turns the plants' final outputs into the objective
 vector.  The evaluator knows nothing of the plant's Python: it is built from FMU paths and a
 :class:`SynthesisProblem` (wiring, start values, objective function).
@@ -9,7 +9,7 @@ vector.  The evaluator knows nothing of the plant's Python: it is built from FMU
 Backends: in-process (``workers=1``), a local process pool (each worker loads its FMUs once),
 or a Dask distributed cluster (``scheduler="tcp://host:port"``, or ``"local"`` for a Dask
 LocalCluster of ``workers`` processes).  The Dask workers need only the installed package: the
-FMU files travel to them as bytes, once per run (:mod:`synthesis.cluster`).
+FMU files travel to them as bytes, once per run (:mod:`synthesis.run.cluster`).
 
 Identical candidates are not simulated twice (cache).  A failing candidate (an FMU error, a
 worker that dies) is retried once, then given the problem's penalty -- never a crash, never a
@@ -18,8 +18,8 @@ workers that cannot load the FMUs): with ``fail_loudly`` the evaluator raises
 :class:`SystematicFailure` with the first error instead of penalising (see :meth:`evaluate`).
 
 Local pool workers exit within seconds of the parent's death, whatever ends it
-(:func:`synthesis.interrupt.watch_parent`); the waits of the parent honour a requested stop
-(:func:`synthesis.interrupt.check_stop`).
+(:func:`synthesis.run.signals.watch_parent`); the waits of the parent honour a requested stop
+(:func:`synthesis.run.signals.check_stop`).
 """
 from __future__ import annotations
 
@@ -35,11 +35,11 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.cosim import ClosedLoop
-from descent_fmus.synthesis.interrupt import check_stop, watch_parent
-from descent_fmus.synthesis.methods.network_operator import NetworkOperator
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.run.signals import check_stop, watch_parent
+from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import require_fmu
-from descent_fmus.synthesis.problem import SynthesisProblem
+from descent_fmus.synthesis.problems.contract import SynthesisProblem
 
 __all__ = ["Evaluator", "SchedulerError", "SystematicFailure", "evaluate_on", "chunk_size",
            "TASK_OVERHEAD", "TASK_DISPATCH"]
@@ -90,7 +90,7 @@ def chunk_size(n: int, workers: int, flight: float, overhead: float,
 def evaluate_on(loop: ClosedLoop, problem: SynthesisProblem, law):
     """Fly one law over every initial state; ``(f, extras)`` or raise on an FMU failure.
 
-    A problem with a ``runner`` (:mod:`synthesis.runners`) chooses its flights itself (racing).
+    A problem with a ``runner`` (:mod:`synthesis.fmi.container_loop`) chooses its flights itself (racing).
     """
     if problem.runner is not None:
         results = problem.runner.flights(loop, problem, law)
@@ -115,7 +115,7 @@ def _worker_loop(problem: SynthesisProblem, plant: str, controller: str):
         if not _LOOPS:         # the process's FMUs are freed, their folders removed, at exit
             import atexit
             atexit.register(_free_loops)
-        # a problem's runner may choose the closed-loop container FMU (synthesis.runners)
+        # a problem's runner may choose the closed-loop container FMU (synthesis.fmi.container_loop)
         load = problem.runner.load if problem.runner is not None else ClosedLoop
         _LOOPS[key] = load(problem.wiring, plant, controller, record=problem.record)
     return _LOOPS[key]
@@ -145,7 +145,7 @@ def evaluate_chunk(problem: SynthesisProblem, plant: str, controller: str, laws)
     """Evaluate laws in this process; a failure is reported per candidate as ``(None, ...)``.
 
     In the process that runs the synthesis (``workers=1``) a requested stop ends the chunk
-    between two candidates (:func:`synthesis.interrupt.check_stop`).
+    between two candidates (:func:`synthesis.run.signals.check_stop`).
     """
     try:
         loop = _worker_loop(problem, plant, controller)
@@ -163,12 +163,12 @@ def evaluate_chunk(problem: SynthesisProblem, plant: str, controller: str, laws)
 
 def evaluate_shipped(problem, plant_ref, controller_ref, laws):
     """Dask task: evaluate ``laws`` with the FMUs shipped to this worker
-    (:class:`synthesis.cluster.FmuShipment`); per-candidate failures are results.
+    (:class:`synthesis.run.cluster.FmuShipment`); per-candidate failures are results.
 
     Returns ``(results, seconds)``: the per-law results and the compute time of the chunk on the
     worker (the evaluator's measure of the per-flight cost).
     """
-    from descent_fmus.synthesis.cluster import shipped_path
+    from descent_fmus.synthesis.run.cluster import shipped_path
     t0 = time.perf_counter()
     out = evaluate_chunk(problem, str(shipped_path(plant_ref)), str(shipped_path(controller_ref)),
                          laws)
@@ -245,7 +245,7 @@ class Evaluator:
         self._plugin = None
         Evaluator._open.add(self)
         if scheduler:
-            from descent_fmus.synthesis.cluster import FmuFile, FmuShipment
+            from descent_fmus.synthesis.run.cluster import FmuFile, FmuShipment
             files = [FmuFile.read(f) for f in self.fmus]
             self._refs = tuple(f.ref for f in files)
             self._connect(scheduler, connect_timeout)
@@ -266,7 +266,7 @@ class Evaluator:
             raise SchedulerError("the Dask backend needs 'distributed': pip install "
                                  "'dask[distributed]'") from None
         if address == "local":
-            from descent_fmus.synthesis.cluster import start_local_cluster
+            from descent_fmus.synthesis.run.cluster import start_local_cluster
             self._cluster, self._client = start_local_cluster(self.workers)
             return
         try:

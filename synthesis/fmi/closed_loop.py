@@ -80,7 +80,7 @@ STATUS_STOP = Stop("status", "!=", 0.0, check_every=8)
 class Wiring:
     """How a plant and a controller are connected -- one definition for every tool.
 
-    Used by :class:`ClosedLoop` (fmpy master in Python), by ``synthesis.export`` for the container
+    Used by :class:`ClosedLoop` (fmpy master in Python), by ``synthesis.fmi.compose`` for the container
     FMU and the SSP file, and by the GA's evaluator.
 
     Attributes
@@ -152,7 +152,7 @@ def load_slave(path, instance_name: str, log: list | None = None,
 
     ``validate=False`` skips fmpy's checks of the model description and ``logging_on=False``
     asks the FMU to log errors only (for the evaluation-only containers of
-    ``synthesis.runners``: their parameters carry no start value, and a container logging on
+    ``synthesis.fmi.container_loop``: their parameters carry no start value, and a container logging on
     reports every call of its components)."""
     path = require_fmu(path)
     md = read_model_description(str(path), validate=validate)

@@ -206,7 +206,7 @@ def _with_units(xml: str) -> bytes:
     its description, as for the pythonfmu FMUs) and its ``<UnitDefinitions>``."""
     from xml.etree import ElementTree as ET
 
-    from descent_fmus.synthesis.units import units_into_model_description
+    from descent_fmus.synthesis.fmi.units import units_into_model_description
     root = ET.fromstring(xml)
     units_into_model_description(root)
     ET.indent(root, space="  ")

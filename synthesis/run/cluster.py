@@ -11,7 +11,7 @@ Worker loss costs nothing: the scheduler re-runs a lost task elsewhere (the eval
 a failed chunk once).  A joining worker receives the plugin when it registers and then takes
 tasks like the others (work stealing moves queued tasks to it).
 
-This module imports ``distributed``; :mod:`synthesis.evaluator` imports it only when a scheduler
+This module imports ``distributed``; :mod:`synthesis.run.evaluation` imports it only when a scheduler
 is used.
 """
 from __future__ import annotations

@@ -9,5 +9,5 @@
 * :mod:`.table_fmu` -- program tables as native FMUs (one table player, ``c/table_model.c``).
 
 Nothing here is imported by the GA's evaluator: the synthesis flies the generic pythonfmu
-controller; what a run *exports* is native (``synthesis.law_export``).
+controller; what a run *exports* is native (``synthesis.fmi.law_files``).
 """

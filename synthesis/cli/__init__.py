@@ -1,0 +1,1 @@
+"""The ``descent-fmus`` command line (entry point: :mod:`synthesis.cli.main`)."""
