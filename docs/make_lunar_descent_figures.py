@@ -1,7 +1,7 @@
 #!/usr/bin/env python
 """Make the S5 figure of the docs from synthesis runs (every flight through the FMUs).
 
-* ``docs/lunar_descent.png`` -- a synthesised law (row ``--row`` of RUN_DIR/pareto.json) against
+* ``docs/figures/lunar_descent.png`` -- a synthesised law (row ``--row`` of RUN_DIR/pareto.json) against
   the baseline (the same row of the baseline run, else the basic law): h over V on the initial
   set and the misses of the seeded dispersion (``descent-fmus lunar-descent report``);
 * with ``--reference``: ``tests/reference/lunar_descent_law.json`` (that law, which the tests
@@ -35,7 +35,7 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=100)
     ap.add_argument("--seed", type=int, default=7)
     ap.add_argument("--fmus", type=Path, default=None, help="folder of the built FMUs")
-    ap.add_argument("--out", type=Path, default=ROOT / "docs", help="figure folder")
+    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "figures", help="figure folder")
     ap.add_argument("--reference", action="store_true",
                     help="also write the law to tests/reference/lunar_descent_law*.json")
     args = ap.parse_args(argv)

@@ -1,5 +1,5 @@
 #!/usr/bin/env python
-"""Make the S3 figures the README shows: docs/lunar_landing.png and docs/lunar_dispersion.png.
+"""Make the S3 figures the docs show: docs/figures/lunar_landing.png and docs/figures/lunar_dispersion.png.
 
     python docs/make_lunar_landing_figures.py [--fmus DIR] [--out DIR]
 
@@ -20,7 +20,7 @@ from descent_fmus.synthesis.systems.lunar_landing.study import (LandingLoops, di
                                                                 plot_dispersion, plot_solution,
                                                                 solve_landing)
 
-DOCS = Path(__file__).resolve().parent
+DOCS = Path(__file__).resolve().parent / "figures"
 
 
 def main(argv=None) -> int:
@@ -28,7 +28,7 @@ def main(argv=None) -> int:
     ap.add_argument("--fmus", type=Path, default=None,
                     help="folder of the built FMUs (default: fmus/ of the checkout, or "
                          "$DESCENT_FMUS_DIR)")
-    ap.add_argument("--out", type=Path, default=DOCS, help="output folder (default docs/)")
+    ap.add_argument("--out", type=Path, default=DOCS, help="output folder (default docs/figures/)")
     args = ap.parse_args(argv)
     import matplotlib
     matplotlib.use("Agg")

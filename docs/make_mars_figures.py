@@ -1,9 +1,9 @@
 #!/usr/bin/env python
 """Make the S2 figures of the docs (every run through the FMUs) and print their numbers.
 
-* ``docs/mars_alpha.png`` -- alpha(t) without control, with the law (consistent root) and with
+* ``docs/figures/mars_alpha.png`` -- alpha(t) without control, with the law (consistent root) and with
   the paper's printed root; u(t) (the paper's figs. 1-2 on one figure).
-* ``docs/mars_6dof.png`` -- the averaged model against the rigid-body plant: (a) no control,
+* ``docs/figures/mars_6dof.png`` -- the averaged model against the rigid-body plant: (a) no control,
   (b) the law fed the omega_1-mode amplitude/phase and fed the instantaneous angles,
   (c) the end-of-descent error of the averaged model against alpha0.
 
@@ -22,14 +22,14 @@ from descent_fmus.synthesis.systems.mars.flight import (ALPHA_TARGET, RECORD_6DO
                                                         load_loop, plot_alpha)
 from descent_fmus.synthesis.systems.mars.wiring import WIRING_6DOF, WIRING_6DOF_INSTANT
 
-DOCS = Path(__file__).resolve().parent
+DOCS = Path(__file__).resolve().parent / "figures"
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fmus", type=Path, default=None,
                     help="folder of the built FMUs (default: fmus/ or $DESCENT_FMUS_DIR)")
-    ap.add_argument("--out", type=Path, default=DOCS, help="folder of the figures (docs/)")
+    ap.add_argument("--out", type=Path, default=DOCS, help="folder of the figures (docs/figures/)")
     args = ap.parse_args(argv)
     os.environ.setdefault("MPLBACKEND", "Agg")
     import matplotlib.pyplot as plt

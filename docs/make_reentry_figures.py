@@ -1,9 +1,9 @@
 #!/usr/bin/env python
 """Make the S1 figures of the docs from a synthesis run (every flight through the FMUs).
 
-* ``docs/reentry_pareto.png`` -- the run's Pareto front with the basic law and the bound (the
+* ``docs/figures/reentry_pareto.png`` -- the run's Pareto front with the basic law and the bound (the
   best open-loop program on the 1 s grid at miss <= 1 km);
-* ``docs/reentry_flight.png`` -- the best synthesised law with miss < 1 km against the basic law
+* ``docs/figures/reentry_flight.png`` -- the best synthesised law with miss < 1 km against the basic law
   and the bound's program (flown blind through the Reentry FMU): h(L), load(t), u(t);
 * ``tests/reference/reentry_best_law.json`` -- that law (the tests fly it through the FMUs).
 
@@ -21,12 +21,13 @@ from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.run.loop import plot_front
+from descent_fmus.synthesis.run.report import plot_front
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry.bound import Program, replay_program
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
-DOCS = ROOT / "docs"
+DOCS = ROOT / "docs" / "figures"
 
 
 class _Rec:
@@ -60,7 +61,7 @@ def main(argv=None):
     flights = {}
     with load_loop(args.fmus, record=("h", "L", "load")) as loop:
         for name, lw in (("synthesised law", law), ("basic law (paper q)",
-                                                     NetworkOperator.basic_law())):
+                                                     paper_basic_law())):
             f = fly(lw, loop=loop, record=True)
             flights[name] = (f.result, f.objectives)
     out = replay_program(prog, args.fmus, record=("h", "L", "load"))

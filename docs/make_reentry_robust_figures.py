@@ -11,8 +11,8 @@ with the paper's basic law, the nominal synthesised law (``nominal_law.json``) a
 the on-board correction, the NPC guidance, the best open-loop program of each scenario flown
 blind and the oracle bound.  Writes
 
-* ``docs/reentry_robust.png`` -- miss CDFs against the oracle, J1 boxplots;
-* ``docs/reentry_robust.json`` -- the table's numbers;
+* ``docs/figures/reentry_robust.png`` -- miss CDFs against the oracle, J1 boxplots;
+* ``docs/figures/reentry_robust.json`` -- the table's numbers;
 * ``synthesis/systems/reentry/sensed_law.json`` -- the robust law (the default law of the built
   ``ReentrySensedClosedLoop.fmu``; the tests fly it);
 * ``synthesis/systems/reentry/guided_law.json`` -- the guided law (the default law of
@@ -39,8 +39,8 @@ from descent_fmus.synthesis.systems.reentry.bound import Program, optimize_open_
 from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
                                                                   robust_study, table_lines)
 
-DOCS = ROOT / "docs"
-#: The load gate of the guided law's extra row [choice] (models/README.md, "S1 load gate").
+DOCS = ROOT / "docs" / "figures"
+#: The load gate of the guided law's extra row [choice] (docs/systems/reentry.md, "S1 load gate").
 GATE = 20.0
 
 
