@@ -14,7 +14,9 @@ normals of a regular dodecahedron, ``a_j = normalize(g_j x e_y)`` (rotor axis at
 gyrodynes) and the reference direction of the rotor axes are parameters:
 :func:`pyramid_axes` and :func:`octahedron_axes` give the other clusters of the thesis
 (Example 3).  First integrals: ``|lam| = 1`` and the inertial angular momentum
-``K = R(lam) (I w + k)``.
+``K = R(lam) (I w + k)``.  The cluster's geometry and the attitude kinematics on plain floats
+(gimbal axes, rotor axes, ``k`` and ``dk/dt``, the quaternion rate) are in
+``models/telescope_cmg.py``; this module re-exports them.
 
 This module holds the only definition of these equations (:func:`make_rigid_rhs`); the
 :class:`Telescope` FMU, the flexible model (``models/telescope_flexible.py``) and the
@@ -40,6 +42,10 @@ from descent_fmus.models.integrators import LEFT_DOMAIN, Integrator
 from descent_fmus.models.params import (ParameterError, Params, description_of, param,
                                         require_finite, unit_of)
 from descent_fmus.models.rk4_input import propagate_linear_input
+from descent_fmus.models.telescope_cmg import (AXES, GIMBAL_AXES, PHI, axes_of, gimbal_vectors,
+                                               gyro_sums, normalize, octahedron_axes,
+                                               pyramid_axes, quat_to_matrix, quaternion_rate,
+                                               sing_max)
 
 __all__ = ["PHI", "GIMBAL_AXES", "AXES", "TelescopeParams", "gimbal_vectors", "gyro_sums",
            "pyramid_axes", "octahedron_axes", "N_GYROS_MAX", "sing_max",
@@ -49,10 +55,6 @@ __all__ = ["PHI", "GIMBAL_AXES", "AXES", "TelescopeParams", "gimbal_vectors", "g
            "TARGET_W", "T_DEFAULT", "AttitudeIntegrator", "Telescope", "INERTIA_NAMES",
            "DT_INTEGRATION", "deg"]
 
-PHI = (1.0 + math.sqrt(5.0)) / 2.0
-#: Gimbal axes (unnormalised): six non-parallel face normals of a regular dodecahedron.
-GIMBAL_AXES = ((0.0, 1.0, PHI), (0.0, 1.0, -PHI), (1.0, PHI, 0.0), (-1.0, PHI, 0.0),
-               (PHI, 0.0, 1.0), (PHI, 0.0, -1.0))
 #: Gyrodynes an FMU can carry (its inputs u[1..6], outputs beta1..beta6).
 N_GYROS_MAX = 6
 #: Default RK4 sub-step inside the FMU [s]; the direct method uses the same sub-steps.
@@ -73,68 +75,6 @@ INITIAL_STATE = (_C15, 0.0, _S15, 0.0, 0.0, deg(0.4), 0.0, 0.0, 0.0, 0.0, 0.0, 0
 #: Target quaternion and body rate [rad/s] at t = T, Voronov (2009) Example 1.
 TARGET_LAM = (_C10, _S10 / math.sqrt(2.0), 0.0, _S10 / math.sqrt(2.0))
 TARGET_W = (deg(-0.3), 0.0, deg(-0.3))
-
-
-def _cross(a, b):
-    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
-
-
-def _unit(a):
-    n = math.sqrt(a[0] ** 2 + a[1] ** 2 + a[2] ** 2)
-    return (a[0] / n, a[1] / n, a[2] / n)
-
-
-#: Body axes by name, for ``rotor_ref``.
-AXES = {"x": (1.0, 0.0, 0.0), "y": (0.0, 1.0, 0.0), "z": (0.0, 0.0, 1.0)}
-
-
-def pyramid_axes(n: int, alpha: float, azimuth0: float = 0.0) -> tuple:
-    """Gimbal axes of a pyramid cluster, flattened (3 entries per gyrodyne).
-
-    Gyrodyne ``j`` (0-based) at azimuth ``psi_j = azimuth0 + 2 pi j / n`` about the pyramid's
-    height ``e_z``; its gimbal axis makes the angle ``alpha`` [rad] with the height:
-    ``g_j = (sin alpha cos psi_j, sin alpha sin psi_j, cos alpha)``.
-    """
-    out = []
-    for j in range(n):
-        psi = azimuth0 + 2.0 * math.pi * j / n
-        out += [math.sin(alpha) * math.cos(psi), math.sin(alpha) * math.sin(psi), math.cos(alpha)]
-    return tuple(out)
-
-
-def octahedron_axes() -> tuple:
-    """Four gimbal axes normal to four pairwise non-parallel faces of a regular octahedron,
-    flattened: ``(+-1, +-1, 1)/sqrt(3)`` -- the classical four-gyrodyne pyramid, whose gimbal
-    axes make ``acos(1/sqrt(3))`` = 54.74 deg with its height ``e_z``."""
-    r = 1.0 / math.sqrt(3.0)
-    return tuple(v * r for g in ((1, 1, 1), (-1, 1, 1), (-1, -1, 1), (1, -1, 1)) for v in g)
-
-
-def _axes_of(flat) -> list:
-    return [tuple(float(v) for v in flat[3 * j:3 * j + 3]) for j in range(len(flat) // 3)]
-
-
-def sing_max(n: int) -> float:
-    """Largest value of the singularity measure det(C C^T)/h^6 for n gyrodynes: (n/3)^3
-    (trace C C^T = n h^2; 8 for six)."""
-    return (n / 3.0) ** 3
-
-
-def gimbal_vectors(rotor_ref="y", axes=GIMBAL_AXES):
-    """Unit gimbal axes ``g_j`` and the rotor axes ``a_j`` (beta=0), ``b_j = g_j x a_j``.
-
-    ``rotor_ref`` is the reference direction ``e_ref`` of ``a_j = normalize(g_j x e_ref)``: a
-    body axis by name (``"y"``, the default [choice], models/README.md; ``"z"`` gives a harder
-    variant) or a 3-vector in body axes.  ``axes``: the gimbal axes, as 3-vectors or flattened
-    (default: the dodecahedron cluster).
-    """
-    e = AXES[rotor_ref] if isinstance(rotor_ref, str) else tuple(rotor_ref)
-    if axes and not isinstance(axes[0], (tuple, list)):
-        axes = _axes_of(axes)
-    g = [_unit(v) for v in axes]
-    a = [_unit(_cross(gj, e)) for gj in g]
-    b = [_cross(gj, aj) for gj, aj in zip(g, a)]
-    return g, a, b
 
 
 @dataclass(frozen=True)
@@ -175,7 +115,7 @@ class TelescopeParams(Params):
         if n3 < 3 or n3 % 3:
             raise ParameterError(f"parameter gimbal_axes needs 3 entries per gyrodyne (at least "
                                  f"one), got {n3}")
-        for j, g in enumerate(_axes_of(self.gimbal_axes)):
+        for j, g in enumerate(axes_of(self.gimbal_axes)):
             if math.sqrt(g[0] ** 2 + g[1] ** 2 + g[2] ** 2) <= 1e-12:
                 raise ParameterError(f"gimbal axis {j + 1} (gimbal_axes[{3 * j + 1}..{3 * j + 3}])"
                                      " is zero")
@@ -184,8 +124,8 @@ class TelescopeParams(Params):
                                  f"axes) or an axis name 'x', 'y', 'z', got {self.rotor_ref!r}")
         e_ref = np.array(self.rotor_ref, float)
         n = float(np.linalg.norm(e_ref))
-        if n == 0.0 or any(np.linalg.norm(np.cross(_unit(g), e_ref)) <= 1e-9 * n
-                           for g in _axes_of(self.gimbal_axes)):
+        if n == 0.0 or any(np.linalg.norm(np.cross(normalize(g), e_ref)) <= 1e-9 * n
+                           for g in axes_of(self.gimbal_axes)):
             raise ParameterError(f"parameter rotor_ref {self.rotor_ref} is zero or along a "
                                  "gimbal axis: it defines no rotor direction")
 
@@ -208,36 +148,6 @@ class TelescopeParams(Params):
         _, a, b = gimbal_vectors(self.rotor_ref, self.gimbal_axes)
         return self.h * np.array(a), self.h * np.array(b)
 
-
-def gyro_sums(x, u, gy, cos=math.cos, sin=math.sin):
-    """Rotor momentum k and its rate k-dot of the gyrodynes, on plain floats.
-
-    ``x[7:13]`` are the gimbal angles beta_j [rad], ``u`` the gimbal rates [rad/s], ``gy`` the
-    pairs (h a_j, h b_j) [N m s]: k = sum h (a_j cos b_j + b_j sin b_j),
-    k-dot = sum h (-a_j sin b_j + b_j cos b_j) u_j.  Returns (k1, k2, k3, kd1, kd2, kd3).
-    """
-    k1 = k2 = k3 = d1 = d2 = d3 = 0.0
-    j = 0
-    for (a, b) in gy:
-        bj = x[7 + j]
-        c, s = cos(bj), sin(bj)
-        k1 += a[0] * c + b[0] * s
-        k2 += a[1] * c + b[1] * s
-        k3 += a[2] * c + b[2] * s
-        uj = u[j]
-        d1 += (b[0] * c - a[0] * s) * uj
-        d2 += (b[1] * c - a[1] * s) * uj
-        d3 += (b[2] * c - a[2] * s) * uj
-        j += 1
-    return k1, k2, k3, d1, d2, d3
-
-
-def quaternion_rate(l0, l1, l2, l3, w1, w2, w3):
-    """d(lambda)/dt = 1/2 A(omega) lambda (Voronov 2009), on plain floats."""
-    return (0.5 * (-w1 * l1 - w2 * l2 - w3 * l3),
-            0.5 * (w1 * l0 + w3 * l2 - w2 * l3),
-            0.5 * (w2 * l0 - w3 * l1 + w1 * l3),
-            0.5 * (w3 * l0 + w2 * l1 - w1 * l2))
 
 
 def make_rigid_rhs(p: TelescopeParams):
@@ -328,13 +238,6 @@ def rigid_jacobian(p: TelescopeParams):
     return jac
 
 
-def quat_to_matrix(lam) -> np.ndarray:
-    """Rotation matrix R (body -> inertial) of the quaternion ``lam`` (scalar first)."""
-    q0, q1, q2, q3 = (float(v) for v in lam[:4])
-    return np.array([
-        [q0 * q0 + q1 * q1 - q2 * q2 - q3 * q3, 2 * (q1 * q2 - q0 * q3), 2 * (q1 * q3 + q0 * q2)],
-        [2 * (q1 * q2 + q0 * q3), q0 * q0 - q1 * q1 + q2 * q2 - q3 * q3, 2 * (q2 * q3 - q0 * q1)],
-        [2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1), q0 * q0 - q1 * q1 - q2 * q2 + q3 * q3]])
 
 
 def gyro_momentum(beta, p: TelescopeParams) -> np.ndarray:
