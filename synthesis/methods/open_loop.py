@@ -23,6 +23,87 @@ from scipy.optimize import minimize
 __all__ = ["minimax_program"]
 
 
+class _Flights:
+    """The flights of :func:`minimax_program`: samples ``g``, scaled equality residuals ``e`` and
+    their Jacobians, the last point's kept (SLSQP asks for the constraints and their Jacobians
+    at the same point one after the other; each may cost ``n + 1`` flights).
+
+    Parameters
+    ----------
+    fly : callable
+        ``fly(u) -> (g, e)`` (or ``(g, e, dg/du, de/du)`` with ``with_jacobian``).
+    n : int
+        Number of program values.
+    hi : float
+        Upper bound of the values (a difference step that would cross it is taken backwards).
+    eq_scale : float
+        Factor applied to ``e`` and its Jacobian.
+    fd_step : float
+        Forward-difference step.
+    with_jacobian : bool
+        ``fly`` gives the Jacobians.
+    """
+
+    def __init__(self, fly, n: int, hi: float, eq_scale: float, fd_step: float,
+                 with_jacobian: bool):
+        self.fly, self.n, self.hi = fly, n, hi
+        self.eq_scale, self.fd_step, self.with_jacobian = eq_scale, fd_step, with_jacobian
+        self._key, self._last = None, None
+
+    def run(self, u):
+        """``(g, e * eq_scale)`` of the program ``u``."""
+        g, e = self.fly(u)[:2]
+        return np.asarray(g, float), np.atleast_1d(np.asarray(e, float)) * self.eq_scale
+
+    def __call__(self, z):
+        """``(g, e, dg/du, de/du)`` at ``z = (u, s)`` (``e`` and ``de/du`` scaled)."""
+        key = z.tobytes()
+        if key != self._key:
+            u = z[:-1]
+            self._last = self._given(u) if self.with_jacobian else self._differences(u)
+            self._key = key
+        return self._last
+
+    def _given(self, u):
+        """The flight's own Jacobians."""
+        g0, e0, jg, je = self.fly(u)
+        return (np.asarray(g0, float), np.atleast_1d(np.asarray(e0, float)) * self.eq_scale,
+                np.asarray(jg, float), np.atleast_2d(np.asarray(je, float)) * self.eq_scale)
+
+    def _differences(self, u):
+        """Forward differences, one flight per value (backwards at the upper bound)."""
+        g0, e0 = self.run(u)
+        jg = np.zeros((len(g0), self.n))
+        je = np.zeros((len(e0), self.n))
+        for k in range(self.n):
+            du = u.copy()
+            du[k] += self.fd_step if du[k] + self.fd_step <= self.hi else -self.fd_step
+            h = du[k] - u[k]
+            gk, ek = self.run(du)
+            jg[:, k] = (gk - g0) / h
+            je[:, k] = (ek - e0) / h
+        return g0, e0, jg, je
+
+
+def _peak_constraint(flights: _Flights) -> dict:
+    """The epigraph constraint ``g_i(u) <= s`` for SLSQP (``z = (u, s)``)."""
+    return {"type": "ineq", "fun": lambda z: z[-1] - flights(z)[0],
+            "jac": lambda z: np.hstack([-flights(z)[2], np.ones((len(flights(z)[0]), 1))])}
+
+
+def _equality_constraints(flights: _Flights, eq_tol: float, eq_scale: float) -> list:
+    """``e(u) = 0`` for SLSQP, or ``|e(u)| <= eq_tol`` as two inequalities when ``eq_tol > 0``
+    (``z = (u, s)``: the slack ``s`` does not enter)."""
+    def jac(sign):
+        return lambda z: np.hstack([sign * flights(z)[3], np.zeros((len(flights(z)[1]), 1))])
+
+    if eq_tol > 0:
+        t = eq_tol * eq_scale
+        return [{"type": "ineq", "fun": lambda z: t - flights(z)[1], "jac": jac(-1.0)},
+                {"type": "ineq", "fun": lambda z: t + flights(z)[1], "jac": jac(1.0)}]
+    return [{"type": "eq", "fun": lambda z: flights(z)[1], "jac": jac(1.0)}]
+
+
 def minimax_program(fly, n: int, bounds: tuple, u0=None, eq_scale: float = 1.0,
                     maxiter: int = 200, tol: float = 1e-9, fd_step: float = 1e-6,
                     progress=None, eq_tol: float = 0.0,
@@ -59,64 +140,17 @@ def minimax_program(fly, n: int, bounds: tuple, u0=None, eq_scale: float = 1.0,
     if n < 1:
         raise ValueError(f"the program needs at least one value, got n = {n}")
     lo, hi = bounds
-    cache = {}
-
-    def run(u):
-        g, e = fly(u)[:2]
-        return np.asarray(g, float), np.atleast_1d(np.asarray(e, float)) * eq_scale
-
-    def eval_with_jac(z):
-        key = z.tobytes()
-        if key in cache:
-            return cache[key]
-        u = z[:-1]
-        if with_jacobian:
-            g0, e0, jg, je = fly(u)
-            cache.clear()
-            cache[key] = (np.asarray(g0, float), np.atleast_1d(np.asarray(e0, float)) * eq_scale,
-                          np.asarray(jg, float), np.atleast_2d(np.asarray(je, float)) * eq_scale)
-            return cache[key]
-        g0, e0 = run(u)
-        jg = np.zeros((len(g0), n))
-        je = np.zeros((len(e0), n))
-        for k in range(n):
-            du = u.copy()
-            du[k] += fd_step if du[k] + fd_step <= hi else -fd_step
-            h = du[k] - u[k]
-            gk, ek = run(du)
-            jg[:, k] = (gk - g0) / h
-            je[:, k] = (ek - e0) / h
-        cache.clear()
-        cache[key] = (g0, e0, jg, je)
-        return cache[key]
-
-    cons = [
-        {"type": "ineq", "fun": lambda z: z[-1] - eval_with_jac(z)[0],
-         "jac": lambda z: np.hstack([-eval_with_jac(z)[2], np.ones((len(eval_with_jac(z)[0]),
-                                                                    1))])},
-    ]
-    if eq_tol > 0:
-        t = eq_tol * eq_scale
-        cons += [
-            {"type": "ineq", "fun": lambda z: t - eval_with_jac(z)[1],
-             "jac": lambda z: np.hstack([-eval_with_jac(z)[3],
-                                         np.zeros((len(eval_with_jac(z)[1]), 1))])},
-            {"type": "ineq", "fun": lambda z: t + eval_with_jac(z)[1],
-             "jac": lambda z: np.hstack([eval_with_jac(z)[3],
-                                         np.zeros((len(eval_with_jac(z)[1]), 1))])}]
-    else:
-        cons.append({"type": "eq", "fun": lambda z: eval_with_jac(z)[1],
-                     "jac": lambda z: np.hstack([eval_with_jac(z)[3],
-                                                 np.zeros((len(eval_with_jac(z)[1]), 1))])})
+    flights = _Flights(fly, n, hi, eq_scale, fd_step, with_jacobian)
+    cons = [_peak_constraint(flights)] + _equality_constraints(flights, eq_tol, eq_scale)
     u_start = np.zeros(n) if u0 is None else np.asarray(u0, float)
     u_start = np.clip(u_start, lo, hi)
-    z0 = np.append(u_start, run(u_start)[0].max())
+    z0 = np.append(u_start, flights.run(u_start)[0].max())
     it = [0]
 
     def callback(z):
         it[0] += 1
         if progress is not None:
-            g, e = run(z[:-1])
+            g, e = flights.run(z[:-1])
             progress(it[0], float(g.max()), float(np.abs(e).max() / eq_scale))
 
     t0 = time.perf_counter()
