@@ -362,43 +362,68 @@ def newton(fun, z0, tol: float = 1e-5, max_iter: int = 50, damped: bool = False,
             return dict(z=z, r=r, iterations=it, history=history, evaluations=evals,
                         success=False, message=f"no convergence in {max_iter} Newton "
                         f"iterations (max |residual| = {np.max(np.abs(r)):.3g})")
-        J = np.empty((n, n))
-        for i in range(n):
-            dz = fd_step * max(abs(z[i]), 1.0)
-            zi = z.copy()
-            zi[i] += dz
-            if domain is not None and domain(zi):
-                zi[i] = z[i] - dz
-                dz = -dz
-            J[:, i] = (F(zi) - r) / dz
-        sv = np.linalg.svd(J, compute_uv=False)
-        if not np.all(np.isfinite(sv)) or sv[-1] <= sv[0] / cond_max or sv[0] == 0.0:
-            raise SingularJacobianError(on_singular(z, sv) if on_singular else
-                                        f"singular Jacobian at z = {z} (singular values {sv})")
-        step = -np.linalg.solve(J, r)
-        lam = 1.0
-        norm0 = float(np.linalg.norm(r))
-        while True:
-            zt = z + lam * step
-            bad = domain(zt) if domain is not None else None
-            if not bad:
-                try:
-                    rt = F(zt)
-                except ShootingError:
-                    rt = None
-                if rt is not None and np.all(np.isfinite(rt)) and (
-                        not damped or np.linalg.norm(rt) < (1.0 - 1e-4 * lam) * norm0):
-                    break
-            lam *= 0.5
-            if lam < 2.0 ** -30:
-                raise ShootingError(f"Newton step from z = {z} cannot be shortened into the "
-                                    f"domain or to a smaller residual"
-                                    + (f" ({bad})" if bad else ""))
-        z, r = zt, rt
+        J = _fd_jacobian(F, z, r, fd_step, domain)
+        _require_regular(J, z, cond_max, on_singular)
+        z, r = _backtrack(F, z, r, -np.linalg.solve(J, r), damped, domain)
         it += 1
         history.append((z.copy(), float(np.max(np.abs(r)))))
     return dict(z=z, r=r, iterations=it, history=history, evaluations=evals, success=True,
                 message="converged")
+
+
+def _fd_jacobian(F, z, r, fd_step: float, domain) -> np.ndarray:
+    """Forward-difference Jacobian of ``F`` at ``z`` (``F(z) = r``), step ``fd_step * max(|z_i|,
+    1)``; a step that would leave the domain is taken backwards."""
+    n = z.size
+    J = np.empty((n, n))
+    for i in range(n):
+        dz = fd_step * max(abs(z[i]), 1.0)
+        zi = z.copy()
+        zi[i] += dz
+        if domain is not None and domain(zi):
+            zi[i] = z[i] - dz
+            dz = -dz
+        J[:, i] = (F(zi) - r) / dz
+    return J
+
+
+def _require_regular(J, z, cond_max: float, on_singular) -> None:
+    """Raise :class:`SingularJacobianError` if ``J`` is singular: a non-finite or zero singular
+    value, or a condition number above ``cond_max`` (message by ``on_singular`` if given)."""
+    sv = np.linalg.svd(J, compute_uv=False)
+    if not np.all(np.isfinite(sv)) or sv[-1] <= sv[0] / cond_max or sv[0] == 0.0:
+        raise SingularJacobianError(on_singular(z, sv) if on_singular else
+                                    f"singular Jacobian at z = {z} (singular values {sv})")
+
+
+def _backtrack(F, z, r, step, damped: bool, domain):
+    """The Newton step from ``z`` (residuals ``r``), halved until it stays in the domain with
+    finite residuals (and, ``damped``, decreases the residual's 2-norm by the Armijo factor
+    ``1 - 1e-4 lam``).  Returns the new ``(z, F(z))``.
+
+    Raises
+    ------
+    ShootingError
+        No step down to ``2^-30`` of the Newton step qualifies.
+    """
+    lam = 1.0
+    norm0 = float(np.linalg.norm(r))
+    while True:
+        zt = z + lam * step
+        bad = domain(zt) if domain is not None else None
+        if not bad:
+            try:
+                rt = F(zt)
+            except ShootingError:
+                rt = None
+            if rt is not None and np.all(np.isfinite(rt)) and (
+                    not damped or np.linalg.norm(rt) < (1.0 - 1e-4 * lam) * norm0):
+                return zt, rt
+        lam *= 0.5
+        if lam < 2.0 ** -30:
+            raise ShootingError(f"Newton step from z = {z} cannot be shortened into the "
+                                f"domain or to a smaller residual"
+                                + (f" ({bad})" if bad else ""))
 
 
 def solve(pb: PontryaginProblem, z0, method: str = "event", tol: float | None = None,
