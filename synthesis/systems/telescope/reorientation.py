@@ -265,6 +265,39 @@ def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = N
     synthesis.methods.direct_method.ConvergenceError
         The iterations failed (the message says why).
     """
+    tol, lam_f, w_f, x0, reach = _checked_arguments(flexible, T, tol, lam_f, w_f, params,
+                                                    panels, u_max, x0)
+    options = dict(u_max=u_max, minimize_energy=bool(min_energy))
+
+    def rigid():
+        return replace(rigid_problem(params, T, lam_f, w_f, x0=x0, grid_step=grid_step),
+                       **options)
+
+    if not flexible:
+        res = solve(rigid(), tol=tol, max_iter=max_iter)
+        return Reorientation(False, T, tol, res, path_metrics(res, params), reach, params,
+                             min_energy=bool(min_energy))
+    pbf = replace(flexible_problem(params, panels, T, lam_f, w_f, x0=x0, grid_step=grid_step),
+                  **options)
+    res, warm = _solve_flexible(pbf, rigid, params, tol, max_iter)
+    return Reorientation(True, T, tol, res, path_metrics(res, params, panels), reach, params,
+                         panels, **warm, min_energy=bool(min_energy))
+
+
+def _checked_arguments(flexible: bool, T: float, tol, lam_f, w_f, params: TelescopeParams,
+                       panels: PanelParams, u_max: float | None, x0) -> tuple:
+    """Check the arguments of :func:`reorient` before iterating; returns ``(tol, lam_f, w_f,
+    x0, reach)``: the tolerance (its default if None), the target and the initial state as
+    tuples of floats, and what :func:`check_reachable` (and, with ``u_max``,
+    :func:`check_rate_limit`) found.
+
+    Raises
+    ------
+    ValueError
+        A non-positive ``T``, ``tol`` or ``u_max``, or an ``x0`` of the wrong size.
+    models.params.ParameterError, UnreachableTargetError, RateLimitTooSmallError
+        See :func:`reorient`.
+    """
     if not (math.isfinite(T) and T > 0):
         raise ValueError(f"T must be > 0 [s], got {T}")
     tol = (TOL_FLEXIBLE if flexible else TOL_RIGID) if tol is None else float(tol)
@@ -283,28 +316,29 @@ def reorient(flexible: bool = False, T: float = T_DEFAULT, tol: float | None = N
         if not (math.isfinite(u_max) and u_max > 0):
             raise ValueError(f"u_max must be > 0 [rad/s], got {u_max}")
         reach.update(check_rate_limit(x0, lam_f, w_f, params, u_max, T))
-    options = dict(u_max=u_max, minimize_energy=bool(min_energy))
-    if not flexible:
-        pb = replace(rigid_problem(params, T, lam_f, w_f, x0=x0, grid_step=grid_step), **options)
-        res = solve(pb, tol=tol, max_iter=max_iter)
-        return Reorientation(False, T, tol, res, path_metrics(res, params), reach, params,
-                             min_energy=bool(min_energy))
-    pbf = replace(flexible_problem(params, panels, T, lam_f, w_f, x0=x0, grid_step=grid_step),
-                  **options)
+    return tol, lam_f, w_f, x0, reach
+
+
+def _solve_flexible(pbf: BoundaryProblem, rigid, params: TelescopeParams, tol: float,
+                    max_iter: int) -> tuple:
+    """Solve the flexible problem ``pbf`` by the reduced algorithm (the rigid model linearised,
+    the miss closed on the flexible one), from zero and from the rigid solution.
+
+    ``rigid()`` builds the rigid problem.  The rigid solution flown on the flexible model shows
+    why the reduced algorithm is needed; started from it, the reduced algorithm shows what a
+    warm start saves.  Returns the result from zero and the :class:`Reorientation` fields of
+    the comparison (``rigid_on_flexible_miss``, ``warm_iterations``, ``extra``).
+    """
     nr = params.n_states
     reduced = LinearModel(rigid_jacobian(params), project=lambda X: X[:, :nr])
     res = solve(pbf, tol=tol, max_iter=max_iter, linear=reduced)
-    # the rigid solution flown on the flexible model, and the reduced algorithm started from it
     t0 = time.perf_counter()
-    rig = solve(replace(rigid_problem(params, T, lam_f, w_f, x0=x0, grid_step=grid_step),
-                        **options), tol=min(tol, 1e-9), max_iter=max_iter)
+    rig = solve(rigid(), tol=min(tol, 1e-9), max_iter=max_iter)
     _, Xf, _ = simulate(pbf.rhs, pbf.x0, rig.t_nodes, rig.controls, pbf.substeps)
     rof = float(np.max(np.abs(Xf[-1, :7] - np.array(pbf.target_value))))
     warm = solve(pbf, controls=rig.controls, tol=tol, max_iter=max_iter, linear=reduced)
-    extra = dict(rigid_then_reduced_seconds=time.perf_counter() - t0)
-    return Reorientation(True, T, tol, res, path_metrics(res, params, panels), reach, params,
-                         panels, rigid_on_flexible_miss=rof, warm_iterations=warm.iterations,
-                         extra=extra, min_energy=bool(min_energy))
+    return res, dict(rigid_on_flexible_miss=rof, warm_iterations=warm.iterations,
+                     extra=dict(rigid_then_reduced_seconds=time.perf_counter() - t0))
 
 
 def replay(ro: Reorientation, fmu_dir=None, step: float | None = None) -> dict:
