@@ -251,63 +251,112 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
         (``synthesis.fmi.container_loop``), whose reset then leaves them at the components' own defaults
         instead of setting each one again (fmpy's container sets every start value on reset).
     """
-    from fmpy.container_fmu.cli import create_container_fmu
-    from fmpy.container_fmu.config import Component, Configuration, Connection
-    from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
-                                        ModelVariable, Unknown)
+    from fmpy.container_fmu.config import Configuration
 
     plant_fmu, controller_fmu, dest = require_fmu(plant_fmu), require_fmu(controller_fmu), Path(dest)
-    mds = {"plant": read_model_description(str(plant_fmu)),
-           "controller": read_model_description(str(controller_fmu))}
-    comps = {role: Component(name=role, filename=path, modelDescription=mds[role])
-             for role, path in (("plant", plant_fmu), ("controller", controller_fmu))}
-    cvars = {role: {v.name: v for v in md.modelVariables} for role, md in mds.items()}
-
-    def cvar(role, name):
-        try:
-            return cvars[role][name]
-        except KeyError:
-            raise KeyError(f"{mds[role].modelName} has no variable {name!r}") from None
-
-    variables = [ModelVariable(type="Real", variability="continuous", causality="independent",
-                               name="time", description="time [s]")]
-    mappings, outputs = {}, []
+    parts = _Components(plant_fmu, controller_fmu)
     parameters = tuple(parameters)
-    if (wiring.to_controller and "sample_period" in cvars["controller"]
+    if (wiring.to_controller and "sample_period" in parts.cvars["controller"]
             and "sample_period" not in {c for c, _, _ in parameters}):
         # a feedback controller samples at the wiring's step whatever the container's step
         # (refine_container: finer output with the controller at its own period)
         parameters += (("sample_period", "controller", "sample_period"),)
+    variables, mappings, outputs = _container_variables(wiring, parts, parameters, starts)
+    connections = _connections(wiring, parts)
+    md = _container_description(wiring, parts, variables, outputs)
+    config = Configuration(parallelDoStep=False, modelDescription=md,
+                           components=[parts.comps["plant"], parts.comps["controller"]],
+                           connections=connections, variableMappings=mappings)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    return _create_container(config, parts, wiring.name, dest)
+
+
+class _Components:
+    """The two components of a container FMU (roles ``"plant"`` and ``"controller"``): their
+    model descriptions ``mds``, fmpy ``Component`` records ``comps`` and variables by name
+    ``cvars``."""
+
+    def __init__(self, plant_fmu: Path, controller_fmu: Path):
+        from fmpy.container_fmu.config import Component
+        self.paths = {"plant": plant_fmu, "controller": controller_fmu}
+        self.mds = {role: read_model_description(str(path)) for role, path in self.paths.items()}
+        self.comps = {role: Component(name=role, filename=path, modelDescription=self.mds[role])
+                      for role, path in self.paths.items()}
+        self.cvars = {role: {v.name: v for v in md.modelVariables}
+                      for role, md in self.mds.items()}
+
+    def var(self, role: str, name: str):
+        """The variable ``name`` of the component ``role``.
+
+        Raises
+        ------
+        KeyError
+            The component has no such variable (the message names the model).
+        """
+        try:
+            return self.cvars[role][name]
+        except KeyError:
+            raise KeyError(f"{self.mds[role].modelName} has no variable {name!r}") from None
+
+
+def _container_variables(wiring: Wiring, parts: _Components, parameters: tuple,
+                         starts: bool) -> tuple:
+    """The container's variables: ``time``, the exposed parameters (the controller's
+    ``sample_period`` starts at the wiring's step; the others at the component's start value,
+    or none if not ``starts``) and the wiring's exposed outputs.  Returns the variables, their
+    mappings onto the components' variables and the outputs (``Unknown`` records)."""
+    from fmpy.model_description import ModelVariable, Unknown
+
+    variables = [ModelVariable(type="Real", variability="continuous", causality="independent",
+                               name="time", description="time [s]")]
+    mappings, outputs = {}, []
     for cname, role, vname in parameters:
-        src = cvar(role, vname)
+        src = parts.var(role, vname)
         start = (repr(float(wiring.step)) if (role, vname) == ("controller", "sample_period")
                  else src.start if starts else None)
         v = ModelVariable(type=src.type, variability="fixed", causality="parameter",
                           initial="exact", name=cname, start=start,
                           description=src.description)
         variables.append(v)
-        mappings[v] = [(comps[role], src)]
+        mappings[v] = [(parts.comps[role], src)]
     for cname, role, vname in wiring.exposed:
-        src = cvar(role, vname)
+        src = parts.var(role, vname)
         v = ModelVariable(type=src.type,
                           variability="discrete" if src.type == "Integer" else "continuous",
                           causality="output", initial="calculated", name=cname,
                           description=src.description)
         variables.append(v)
-        mappings[v] = [(comps[role], src)]
+        mappings[v] = [(parts.comps[role], src)]
         outputs.append(Unknown(variable=v))
+    return variables, mappings, outputs
+
+
+def _connections(wiring: Wiring, parts: _Components) -> list:
+    """The wiring's connections, plant -> controller first: the controller then reads y(t) when
+    u is copied, the master algorithm of :mod:`synthesis.fmi.closed_loop`."""
+    from fmpy.container_fmu.config import Connection
+
     def conn(src_role, a, dst_role, b):
         # fmpy 0.3.32 writes a connection's type verbatim but its container reads FMI 3 type
         # names (Float64, Int32): hand it connectors that carry those names.
-        va, vb = cvar(src_role, a), cvar(dst_role, b)
+        va, vb = parts.var(src_role, a), parts.var(dst_role, b)
         kind = {"Real": "Float64", "Integer": "Int32"}.get(va.type, va.type)
-        return Connection(comps[src_role], [attrs.evolve(va, type=kind)], comps[dst_role],
-                          [attrs.evolve(vb, type=kind)])
+        return Connection(parts.comps[src_role], [attrs.evolve(va, type=kind)],
+                          parts.comps[dst_role], [attrs.evolve(vb, type=kind)])
 
-    # plant -> controller first: the controller then reads y(t) when u is copied (see cosim.py)
     connections = [conn("plant", a, "controller", b) for a, b in wiring.to_controller]
     connections += [conn("controller", a, "plant", b) for a, b in wiring.to_plant]
-    md = ModelDescription(
+    return connections
+
+
+def _container_description(wiring: Wiring, parts: _Components, variables: list,
+                           outputs: list):
+    """The container's model description: fixed internal step = the wiring's step, the
+    default experiment of the wiring."""
+    from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
+                                        Unknown)
+    mds = parts.mds
+    return ModelDescription(
         fmiVersion="2.0", modelName=wiring.name, instantiationToken=f"{{{uuid.uuid4()}}}",
         description=wiring.description or f"{mds['plant'].modelName} + "
                                           f"{mds['controller'].modelName} in closed loop",
@@ -319,23 +368,24 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
                                   fixedInternalStepSize=wiring.step),
         modelVariables=variables, outputs=outputs,
         initialUnknowns=[Unknown(variable=u.variable) for u in outputs])
-    config = Configuration(parallelDoStep=False, modelDescription=md,
-                           components=[comps["plant"], comps["controller"]],
-                           connections=connections, variableMappings=mappings)
-    dest.parent.mkdir(parents=True, exist_ok=True)
+
+
+def _create_container(config, parts: _Components, name: str, dest: Path) -> Path:
+    """Write the container FMU of ``config`` to ``dest`` with fmpy, the components' units in
+    its variables' descriptions."""
+    from fmpy.container_fmu.cli import create_container_fmu
+
     with tempfile.TemporaryDirectory(prefix="descent_container_") as tmp:
         # the container resolves components by file stem: copy them under their identifiers
-        staged = []
-        for role, path in (("plant", plant_fmu), ("controller", controller_fmu)):
-            ident = mds[role].coSimulation.modelIdentifier
+        for role, path in parts.paths.items():
+            ident = parts.mds[role].coSimulation.modelIdentifier
             target = Path(tmp) / "src" / f"{ident}.fmu"
             target.parent.mkdir(exist_ok=True)
             shutil.copy(path, target)
-            comps[role].filename = target
-            staged.append(target)
+            parts.comps[role].filename = target
         work = Path(tmp) / "work"
         work.mkdir()
-        out = Path(tmp) / f"{wiring.name}.fmu"
+        out = Path(tmp) / f"{name}.fmu"
         create_container_fmu(config, work, out)
         add_units(out)      # the variables' descriptions carry the components' units
         shutil.move(str(out), dest)

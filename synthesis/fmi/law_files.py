@@ -140,17 +140,10 @@ def export_law_files(law, dest, law_fmu: str = "auto", fmu_dir=None,
         ``law_fmu="native"`` and no C compiler.
     NativeBuildError, FMUNotFoundError, ValueError
     """
-    from descent_fmus.synthesis.fmi.compose import closed_loop_fmu, with_defaults, write_ssp
     from descent_fmus.synthesis.fmi.native.ccode import c_identifier
     from descent_fmus.synthesis.fmi.native.law_fmu import (DEFAULT_IDENTIFIER, build_law_fmu,
                                                        law_sources)
-    kind, note = choose_law_fmu(law_fmu)
-    if kind == "native" and problem is not None and \
-            problem.wiring.controller != "NetworkOperatorController":
-        # the native law FMU stands in for the generic controller only; a problem's own
-        # controller FMU (e.g. one carrying a sensor estimate) is exported with the law as defaults
-        kind, note = "python", (f"{problem.wiring.controller} does more than the law: exported "
-                                f"as that pythonfmu FMU with the law as defaults")
+    kind, note = _law_fmu_kind(law_fmu, problem)
     if (kind == "python" or closed_loop) and fmu_dir is None:
         raise ValueError("a pythonfmu law FMU or a closed loop needs the folder of the built "
                          "FMUs (fmu_dir)")
@@ -168,22 +161,52 @@ def export_law_files(law, dest, law_fmu: str = "auto", fmu_dir=None,
     if kind == "native":
         ctrl = build_law_fmu(law, dest / f"{ident}.fmu", ident, what, about)
     else:
-        src = (problem.fmu_paths(fmu_dir)[1] if problem is not None
-               else Path(fmu_dir) / "NetworkOperatorController.fmu")
-        ctrl = with_defaults(src, dest / Path(src).name, law.start_values(),
-                             description=f"{what}: {doc['readable']['text']}"[:2000])
+        ctrl = _python_law_fmu(law, dest, fmu_dir, problem, f"{what}: {doc['readable']['text']}")
     out.update(controller_fmu=str(ctrl), law_fmu=kind, note=note)
     if closed_loop:
-        w = problem.wiring
-        plant_fmu = problem.fmu_paths(fmu_dir)[0]
-        wl = replace(w, description=f"{description or w.description}; law "
-                                    f"{doc['readable']['text']}"[:2000])
-        names = list(dict.fromkeys(k for s in problem.initial_states for k in s))
-        plant_params = tuple((n, "plant", n) for n in names)
-        out["closed_loop_fmu"] = str(closed_loop_fmu(wl, plant_fmu, ctrl, dest / f"{w.name}.fmu",
-                                                     parameters=plant_params))
-        out["ssp"] = str(write_ssp(wl, plant_fmu, ctrl, dest / f"{w.name}.ssp"))
+        out.update(_closed_loop_files(problem, fmu_dir, ctrl, dest,
+                                      f"{description or problem.wiring.description}; law "
+                                      f"{doc['readable']['text']}"))
     return out
+
+
+def _law_fmu_kind(law_fmu: str, problem) -> tuple[str, str]:
+    """:func:`choose_law_fmu` for ``problem``: ``("native" | "python", note)``.
+
+    The native law FMU stands in for the generic controller only; a problem's own controller
+    FMU (e.g. one carrying a sensor estimate) is exported with the law as defaults.
+    """
+    kind, note = choose_law_fmu(law_fmu)
+    if kind == "native" and problem is not None and \
+            problem.wiring.controller != "NetworkOperatorController":
+        kind, note = "python", (f"{problem.wiring.controller} does more than the law: exported "
+                                f"as that pythonfmu FMU with the law as defaults")
+    return kind, note
+
+
+def _python_law_fmu(law, dest: Path, fmu_dir, problem, description: str) -> Path:
+    """The pythonfmu law FMU in ``dest``: the problem's controller FMU (default the generic
+    ``NetworkOperatorController``) from ``fmu_dir`` with the law as defaults."""
+    from descent_fmus.synthesis.fmi.compose import with_defaults
+    src = (problem.fmu_paths(fmu_dir)[1] if problem is not None
+           else Path(fmu_dir) / "NetworkOperatorController.fmu")
+    return with_defaults(src, dest / Path(src).name, law.start_values(),
+                         description=description[:2000])
+
+
+def _closed_loop_files(problem, fmu_dir, ctrl: Path, dest: Path, description: str) -> dict:
+    """``<wiring name>.fmu`` (container: the problem's plant + the law FMU ``ctrl``) and
+    ``<wiring name>.ssp`` in ``dest``; the plant parameters the problem sets per initial state
+    stay parameters of the container.  Returns their paths (``closed_loop_fmu``, ``ssp``)."""
+    from descent_fmus.synthesis.fmi.compose import closed_loop_fmu, write_ssp
+    w = problem.wiring
+    plant_fmu = problem.fmu_paths(fmu_dir)[0]
+    wl = replace(w, description=description[:2000])
+    names = list(dict.fromkeys(k for s in problem.initial_states for k in s))
+    plant_params = tuple((n, "plant", n) for n in names)
+    return {"closed_loop_fmu": str(closed_loop_fmu(wl, plant_fmu, ctrl, dest / f"{w.name}.fmu",
+                                                   parameters=plant_params)),
+            "ssp": str(write_ssp(wl, plant_fmu, ctrl, dest / f"{w.name}.ssp"))}
 
 
 # -- descent-fmus export-law ---------------------------------------------------------------------
