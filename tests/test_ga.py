@@ -6,7 +6,13 @@ import json
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.methods.ga import GAConfig, GrayCodec, StructureCodec, VariationalGA
+from descent_fmus.synthesis.methods.encoding import GrayCodec, StructureCodec
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.pareto import ParetoArchive, Target
+from descent_fmus.synthesis.methods.refinement import RefineConfig
+from descent_fmus.synthesis.methods.variational_ga import GAConfig, VariationalGA
+from descent_fmus.synthesis.run.evaluation import Evaluation
+from descent_fmus.synthesis.run.loop import RunLoop, archive_state
 from descent_fmus.synthesis.methods.pareto import (crowding_distance, dominance_counts, hypervolume_2d, igd,
                               non_dominated, non_dominated_sort)
 
@@ -42,42 +48,54 @@ def test_gray_codec_round_trip():
     assert int(np.sum(a != b)) == 1
 
 
-def zdt1(cands):
+def zdt1(laws):
     F = []
-    for _, q in cands:
+    for _, q in laws:
         x = np.asarray(q)
         g = 1 + 9 * x[1:].mean()
         F.append((x[0], g * (1 - np.sqrt(x[0] / g))))
     return np.array(F)
 
 
-def _zdt_ga(seed):
+def run(ga, objectives, archive=None, on_boundary=None):
+    """The package's one run loop with a Python objective function (no FMU)."""
+    def evaluate(cands):
+        F = objectives([c.law for c in cands])
+        return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
+    return RunLoop(ga, evaluate, archive, on_boundary=on_boundary).run()
+
+
+def front(loop) -> list:
+    return [f.tolist() for _, f, _ in loop.archive.sorted()]
+
+
+def _zdt_ga(seed, generations):
     return VariationalGA(GrayCodec(30, 0, 16, 0.0, 1.0), [0.5] * 30,
                          np.random.default_rng(seed),
-                         GAConfig(population=100, crossovers=25, lchr=0))
+                         GAConfig(population=100, crossovers=25, lchr=0),
+                         generations=generations)
 
 
 def test_zdt1_hypervolume():
     # ZDT1 (Zitzler, Deb, Thiele 2000): true front f2 = 1 - sqrt(f1), HV(ref 1.1,1.1) = 0.8764.
     # 300 generations (~21k evaluations) of the lab's steady-state scheme: HV >= 0.75 (86 %)
     # -- random sampling of as many points has HV 0 (no point inside the reference box).
-    ga = _zdt_ga(1).run(zdt1, 300)
-    P = np.array([f for _, f, _ in ga.pareto()])
+    P = np.array(front(run(_zdt_ga(1, 300), zdt1)))
     x = np.linspace(0, 1, 2001)
-    front = np.c_[x, 1 - np.sqrt(x)]
-    assert hypervolume_2d(front, (1.1, 1.1)) == pytest.approx(0.8764, abs=1e-3)
+    exact = np.c_[x, 1 - np.sqrt(x)]
+    assert hypervolume_2d(exact, (1.1, 1.1)) == pytest.approx(0.8764, abs=1e-3)
     assert hypervolume_2d(P, (1.1, 1.1)) >= 0.75
-    assert igd(P, front) < 0.06
+    assert igd(P, exact) < 0.06
 
 
 def test_same_seed_same_result_and_resume_from_state():
-    a = _zdt_ga(5).run(zdt1, 40)
-    b = _zdt_ga(5).run(zdt1, 40)
+    a = run(_zdt_ga(5, 40), zdt1).method
+    b = run(_zdt_ga(5, 40), zdt1).method
     assert np.array_equal(a.F, b.F)
     # interrupted after 15 generations, restored from its JSON state, continued to 40
-    c = _zdt_ga(5).run(zdt1, 15)
+    c = run(_zdt_ga(5, 15), zdt1).method
     state = json.loads(json.dumps(c.state()))
-    d = _zdt_ga(999).load_state(state).run(zdt1, 25)
+    d = run(_zdt_ga(999, 40).load_state(state), zdt1).method
     assert d.generation == 40
     assert np.array_equal(a.F, d.F)
     assert a.rng.bit_generator.state == d.rng.bit_generator.state
@@ -106,62 +124,76 @@ def test_structure_variations_follow_the_rules():
 
 
 def test_bad_config():
-    with pytest.raises(ValueError, match="population"):
+    with pytest.raises(ValueError, match="population: must be >= 4"):
         GAConfig(population=2)
-    ga = _zdt_ga(1)
+    with pytest.raises(ValueError, match="population: must be <= 100000"):
+        GAConfig(population=100_000_000)
+    ga = _zdt_ga(1, 1)
     ga.ask()
     with pytest.raises(ValueError, match="finite objective rows"):
-        ga.tell(np.full((100, 2), np.nan))
+        ga.tell(np.full((100, 2), np.nan), np.zeros(100))
 
 
 # -- CMA-ES refinement of the parameters inside the GA ------------------------------------------
-def _bowl_objectives(cands):
+def _bowl_objectives(laws):
     # objective 1: distance^2 of q from (0.3, -0.2); objective 2: a "miss" 1000 |q1 - q2 - 1|;
     # the structure (psi) is ignored: every structure has the same landscape
     F = []
-    for _, q in cands:
-        q = np.asarray(q)
+    for law in laws:
+        q = np.asarray(law.q)
         F.append((float(((q - [0.3, -0.2]) ** 2).sum()), 1000 * abs(q[0] - q[1] - 1.0)))
     return np.array(F)
 
 
-def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise"):
-    from descent_fmus.synthesis.methods.baselines import Target
+def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise",
+                 generations=7):
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
     psi[0, 3], psi[1, 3], psi[3, 4], psi[2, 4], psi[4, 5] = 1, 1, 1, 1, 1
-    cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, refine_evals=refine_evals,
-                   refine_laws=2, refine_basis=refine_basis, basis_rule=basis_rule)
+    cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, basis_rule=basis_rule)
+    refine = RefineConfig(evals=refine_evals, laws=2, basis=refine_basis)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
-                         cfg, sc, psi, target=Target(0, 1, 100.0))
+                         cfg, sc, psi, decode=_bowl_law, target=Target(0, 1, 100.0),
+                         refine=refine, generations=generations)
+
+
+def _bowl_law(psi, q):
+    return NetworkOperator(psi, 1, q)
+
+
+def _checkpoints(loop) -> list:
+    """What a run writes at every boundary: the method's state and the archive."""
+    return [json.dumps({"method": loop.method.state(), "archive": archive_state(loop.archive)})]
 
 
 def test_refinement_is_seeded_resumes_and_improves_the_parameters():
-    a = _refining_ga(3).run(_bowl_objectives, 7)
-    b = _refining_ga(3).run(_bowl_objectives, 7)
-    assert np.array_equal(a.F, b.F) and a.evaluations == b.evaluations
+    from descent_fmus.synthesis.run.loop import load_archive
+    a = run(_refining_ga(3), _bowl_objectives)
+    b = run(_refining_ga(3), _bowl_objectives)
+    assert np.array_equal(a.method.F, b.method.F) and a.method.evaluations == b.method.evaluations
     # interrupted in the middle of the second refinement (its CMA-ES state in the checkpoint),
     # restored from JSON into a GA with another seed, continued: the same result
-    c = _refining_ga(3)
     states = []
-    c.run(_bowl_objectives, 7, callback=lambda g: states.append(json.dumps(g.state())))
-    mid = next(json.loads(s) for s in states
-               if json.loads(s)["refine"] and json.loads(s)["generation"] == 6)
-    d = _refining_ga(999).load_state(mid).run(_bowl_objectives, 7 - mid["generation"])
-    assert np.array_equal(a.F, d.F) and a.evaluations == d.evaluations
-    assert [f.tolist() for _, f, _ in d.pareto()] == [f.tolist() for _, f, _ in a.pareto()]
+    run(_refining_ga(3), _bowl_objectives, on_boundary=lambda lp: states.extend(_checkpoints(lp)))
+    mid = next(json.loads(s) for s in states if json.loads(s)["method"]["refine"].get("members")
+               and json.loads(s)["method"]["generation"] == 6)
+    d = run(_refining_ga(999).load_state(mid["method"]), _bowl_objectives,
+            archive=load_archive(mid["archive"]))
+    assert np.array_equal(a.method.F, d.method.F)
+    assert a.method.evaluations == d.method.evaluations
+    assert front(d) == front(a)
     # the refinement reaches the constrained minimum of the bowl: min |q - (0.3, -0.2)|^2 with
     # |q1 - q2 - 1| < 0.1 lies on q1 - q2 = 0.9, at distance 0.4/sqrt(2) from (0.3, -0.2):
     # 0.08 (closed form); the GA alone with as many evaluations (90 generations) stays above it
-    best = lambda g: min(f[0] for _, f, _ in g.pareto() if f[1] < 100.0)  # noqa: E731
+    best = lambda lp: min(f[0] for f in front(lp) if f[1] < 100.0)  # noqa: E731
     assert best(a) == pytest.approx(0.08, abs=1e-4)
-    plain = _refining_ga(3, refine_evals=0).run(_bowl_objectives, 90)
-    assert plain.evaluations >= a.evaluations and best(plain) > 0.0805
+    plain = run(_refining_ga(3, refine_evals=0, generations=90), _bowl_objectives)
+    assert plain.method.evaluations >= a.method.evaluations and best(plain) > 0.0805
 
 
 def test_basis_refinement_comes_first_and_resumes():
-    # refine_basis: after the initial population, CMA-ES tunes the basis (member 0, no
+    # refine basis: after the initial population, CMA-ES tunes the basis (member 0, no
     # variations) alone for its own budget before any child is made; the basis q then reaches
     # the constrained minimum of the bowl, 0.08 (closed form, as above), within 1e-3
     a = _refining_ga(3, refine_evals=0, refine_basis=400)
@@ -170,7 +202,8 @@ def test_basis_refinement_comes_first_and_resumes():
         cands = a.ask()
         phases.append(a._pending[0])
         evals.append(a.evaluations)
-        a.tell(_bowl_objectives(cands))
+        F = _bowl_objectives([c.law for c in cands])
+        a.tell(F, np.zeros(len(F)))
     assert phases[0] == "init" and phases[-1] == "children"
     assert set(phases[1:-1]) == {"refine"}
     # the basis refinement used its budget (whole CMA-ES generations: at most one more)
@@ -178,12 +211,12 @@ def test_basis_refinement_comes_first_and_resumes():
     basis_f = a.pop[0].f
     assert basis_f[1] < 100.0 and basis_f[0] == pytest.approx(0.08, abs=1e-3)
     # a checkpoint taken in the middle of the basis refinement continues exactly
-    b = _refining_ga(3, refine_evals=0, refine_basis=400)
     states = []
-    b.run(_bowl_objectives, 3, callback=lambda g: states.append(json.dumps(g.state())))
+    b = run(_refining_ga(3, refine_evals=0, refine_basis=400, generations=3), _bowl_objectives,
+            on_boundary=lambda lp: states.append(json.dumps(lp.method.state()))).method
     mid = next(json.loads(s) for s in states if json.loads(s)["refine"].get("members"))
-    c = _refining_ga(999, refine_evals=0, refine_basis=400).load_state(mid)
-    c.run(_bowl_objectives, 3 - mid["generation"])
+    c = run(_refining_ga(999, refine_evals=0, refine_basis=400, generations=3)
+            .load_state(mid), _bowl_objectives).method
     assert np.array_equal(b.F, c.F) and b.evaluations == c.evaluations
 
 
@@ -191,7 +224,7 @@ def test_target_basis_rule_keeps_the_best_law_as_the_basis():
     # basis_rule "target": at every epoch the best law by the target (lowest objective among
     # those meeting the constraint) becomes the basis, member 0, which is never replaced -- so
     # the best feasible objective of the population never worsens (the rule's definition)
-    g = _refining_ga(5, refine_evals=40, basis_rule="target")
+    g = _refining_ga(5, refine_evals=40, basis_rule="target", generations=9)
     new_basis, chosen = g._new_basis, []
 
     def checked():
@@ -206,18 +239,58 @@ def test_target_basis_rule_keeps_the_best_law_as_the_basis():
         return members
     g._new_basis = checked
     seen = []
-    g.run(_bowl_objectives, 9, callback=lambda ga: seen.append(
-        ga.F[ga.F[:, 1] < 100.0, 0].min() if (ga.F[:, 1] < 100.0).any() else np.inf))
+
+    def watch(lp):
+        F = lp.method.F
+        seen.append(F[F[:, 1] < 100.0, 0].min() if (F[:, 1] < 100.0).any() else np.inf)
+    run(g, _bowl_objectives, on_boundary=watch)
     assert len(chosen) >= 2
     assert all(b <= a for a, b in zip(seen, seen[1:]))
 
 
 def test_refinement_needs_a_target():
-    cfg = GAConfig(population=8, crossovers=2, lchr=0, refine_evals=10)
+    cfg = GAConfig(population=8, crossovers=2, lchr=0)
     with pytest.raises(ValueError, match="needs a target"):
-        VariationalGA(GrayCodec(2), [1.0, 1.0], np.random.default_rng(1), cfg)
+        VariationalGA(GrayCodec(2), [1.0, 1.0], np.random.default_rng(1), cfg,
+                      refine=RefineConfig(evals=10))
     cfg = GAConfig(population=8, crossovers=2, lchr=0, basis_rule="target")
     with pytest.raises(ValueError, match="needs a target"):
         VariationalGA(GrayCodec(2), [1.0, 1.0], np.random.default_rng(1), cfg)
-    with pytest.raises(ValueError, match="basis_rule must be"):
+    with pytest.raises(ValueError, match="basis_rule: must be one of"):
         GAConfig(basis_rule="best")
+
+
+# -- constraint-domination (one definition: the GA, the archive, CMA-ES) -------------------------
+def test_constraint_domination_on_a_hand_made_set():
+    # Deb's rule (CMAME 186, 2000), worked by hand: feasible rows rank by Pareto dominance; an
+    # infeasible row is dominated by every feasible row and by every row of smaller violation
+    F = [(1, 5), (2, 2), (5, 1), (0, 0), (3, 3), (2, 3)]
+    cv = [0, 0, 0, 0.5, 0.2, 0]
+    # (0, 0) is the best point by its objectives, but infeasible: 4 rows dominate it (3
+    # feasible ones + (3, 3) with a smaller violation); (2, 3) is dominated by (2, 2)
+    assert dominance_counts(F, cv).tolist() == [0, 0, 0, 5, 4, 1]
+    assert non_dominated(F, cv).tolist() == [0, 1, 2]
+    assert [f.tolist() for f in non_dominated_sort(F, cv)] == [[0, 1, 2], [5], [4], [3]]
+    # without violations the same rows are plain Pareto ranks: (0, 0) dominates everything
+    assert dominance_counts(F).tolist() == [1, 1, 1, 0, 3, 2]
+    archive = ParetoArchive()
+    for k, (f, c) in enumerate(zip(F, cv)):
+        archive.add(k, f, c)
+    assert sorted(a[0] for a in archive.items) == [0, 1, 2]      # only feasible laws stay
+    # no feasible row at all: the least violating ones are kept
+    none_ok = ParetoArchive()
+    for k, (f, c) in enumerate([((0, 0), 0.3), ((1, 1), 0.1), ((2, 0), 0.1), ((0, 9), 0.2)]):
+        none_ok.add(k, f, c)
+    assert sorted(a[0] for a in none_ok.items) == [1, 2]
+
+
+def test_target_ranks_violations_first():
+    t = Target(objective=0, constraint=1, limit=1.0)
+    F = np.array([[1.0, 0.5], [0.5, 0.5], [0.1, 2.0], [0.0, 0.0]])
+    cv = np.array([0.0, 0.0, 0.0, 0.3])
+    # row 3 has the best objective and meets the target's limit, but violates a constraint;
+    # row 2 misses the target's limit; the order: 1 (0.5), 0 (1.0), 2 (penalised), 3
+    assert t.order(F, cv).tolist() == [1, 0, 2, 3]
+    assert t.best(F, cv) == 1 and t.best(F) == 3
+    assert t.keys(F, cv)[3] == (0.3, 0.0)
+    assert t.better(F[1], F[3], 0.0, 0.3) and not t.better(F[3], F[1], 0.3, 0.0)

@@ -13,8 +13,12 @@ import numpy as np
 import pytest
 
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.methods.baselines import (CMA, PolicySearch, Target, monomials,
-                                                          polynomial_law, tanh_network_law)
+from descent_fmus.synthesis.methods.cma import CMA
+from descent_fmus.synthesis.methods.pareto import Target
+from descent_fmus.synthesis.methods.policy_search import PolicySearch
+from descent_fmus.synthesis.methods.structures import monomials, polynomial_law, tanh_network_law
+from descent_fmus.synthesis.run.evaluation import Evaluation
+from descent_fmus.synthesis.run.loop import RunLoop
 
 TEMPLATE = NetworkOperator.linear([[1.0, 1.0]], bounds=[(-0.2, 0.2)], input_names=["a", "b"],
                                   input_scale=[10.0, 2.0])
@@ -61,6 +65,15 @@ def test_target_scalar_and_feasibility():
     assert t.best(F[1:2]) is None
 
 
+def run(search, objectives, evaluations):
+    """The package's one run loop until ``evaluations`` candidates in all (whole generations)."""
+    def evaluate(cands):
+        F = np.atleast_2d(objectives([c.law for c in cands]))
+        return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
+    RunLoop(search, evaluate, flights=evaluations, flights_done=search.evaluations).run()
+    return search
+
+
 def _bowl(laws):
     # objective 1: distance of q from (0.3, -0.2, 0.1); objective 2: |q1| as a "miss"
     q = np.array([law.q for law in laws])
@@ -75,22 +88,22 @@ def _search(seed):
 def test_policy_search_finds_the_constrained_minimum():
     # min |q - (0.3, -0.2, 0.1)|^2 subject to 1000 |q1| < 250: the minimum lies on the
     # constraint, q = (0.25, -0.2, 0.1), objective 0.05^2 = 0.0025 (closed form)
-    s = _search(3).run(_bowl, 600)
+    s = run(_search(3), _bowl, 600)
     assert s.best_f[1] < 250.0
     assert s.best_f[0] == pytest.approx(0.0025, abs=2e-5)
     assert s.best_law.q == pytest.approx([0.25, -0.2, 0.1], abs=2e-3)
 
 
 def test_policy_search_is_seeded_and_resumes_from_its_state():
-    a = _search(5).run(_bowl, 300)
-    b = _search(5).run(_bowl, 300)
+    a = run(_search(5), _bowl, 300)
+    b = run(_search(5), _bowl, 300)
     assert a.best_law.q == b.best_law.q
-    c = _search(5).run(_bowl, 120)
+    c = run(_search(5), _bowl, 120)
     state = json.loads(json.dumps(c.state()))
-    d = _search(99).load_state(state).run(_bowl, 300 - c.evaluations)
+    d = run(_search(99).load_state(state), _bowl, 300)
     assert d.evaluations == a.evaluations
     assert d.best_law.q == a.best_law.q and np.array_equal(d.best_f, a.best_f)
-    assert _search(6).run(_bowl, 300).best_law.q != a.best_law.q
+    assert run(_search(6), _bowl, 300).best_law.q != a.best_law.q
 
 
 def test_cma_restarts_with_a_larger_population():
@@ -98,8 +111,8 @@ def test_cma_restarts_with_a_larger_population():
     law = NetworkOperator.linear([[1.0]], bounds=[(-1, 1)])
     s = PolicySearch(law, Target(0), seed=1, sigma=0.3, restart_sigma=1e-2)
     p0 = s.popsize
-    s.run(lambda laws: np.array([[(lw.q[0] - 0.1) ** 2 + (lw.q[1] + 0.3) ** 2] for lw in laws]),
-          400)
+    run(s, lambda laws: np.array([[(lw.q[0] - 0.1) ** 2 + (lw.q[1] + 0.3) ** 2] for lw in laws]),
+        400)
     assert s.restarts >= 1 and s.popsize == p0 * 2 ** s.restarts
 
 
@@ -162,4 +175,4 @@ def test_cma_restart_bookkeeping_survives_a_checkpoint():
     b = run(CMA([0.5, 0.5], 0.3, seed=4, restart_sigma=1e-2, restart_stall=20), 70)
     c = run(CMA([0.0, 0.0], 0.3, seed=1).load_state(b.state()), 80)
     assert a.restarts >= 1 and c.restarts == a.restarts and c.popsize == a.popsize
-    assert c.best_x == a.best_x and c.best_value == a.best_value
+    assert c.best_x == a.best_x and c.best_key == a.best_key

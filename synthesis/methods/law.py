@@ -17,12 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.models.controllers.network_operator import (BASIC_LAW_PSI, BINARY_NAMES, L_MAX,
-                                                              NQ_MAX, NU_MAX, NX_MAX, PAPER_Q,
-                                                              UNARY_NAMES, MatrixError,
-                                                              compile_law, evaluate)
+from descent_fmus.models.controllers.network_operator import (BIG, BINARY_NAMES, L_MAX, NQ_MAX,
+                                                              NU_MAX, NX_MAX, UNARY_NAMES,
+                                                              MatrixError, compile_law, evaluate)
 
-__all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError", "PAPER_LAW_PSI"]
+__all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError"]
 
 
 class CapacityError(MatrixError):
@@ -31,31 +30,6 @@ class CapacityError(MatrixError):
 
 class LawFileError(ValueError):
     """A law file is not valid JSON or does not describe a valid network operator."""
-
-
-def _paper_law_psi():
-    """The paper's printed 16-node law (Diveev & Shmalko), rebuilt from its printed formula.
-
-    The printed matrix is OCR-damaged (a row with 15 entries, diagonal entries lost), so it is
-    rebuilt from the printed expression, which is complete:
-    z5 = q1*y1, z6 = -q2 + y2, z7 = z6*z5, z8 = z7, z9 = z8, z10 = z9 + rho8(y2), z11 = z10,
-    z12 = -z10, z13 = z12 + rho4(z11), z14 = z13 + rho9(y2), z15 = z14 + rho4(z9) + rho8(y1),
-    z16 = z15 - y1; nodes 1 y1, 2 y2, 3 q1, 4 q2.
-    """
-    psi = [[0] * 16 for _ in range(16)]
-    binary = {5: 2, 6: 1, 7: 2, 8: 1, 9: 1, 10: 1, 11: 1, 12: 1, 13: 1, 14: 1, 15: 1, 16: 1}
-    for node, op in binary.items():
-        psi[node - 1][node - 1] = op
-    arcs = [(1, 5, 1), (3, 5, 1), (2, 6, 1), (4, 6, 3), (6, 7, 1), (5, 7, 1), (7, 8, 1),
-            (8, 9, 1), (9, 10, 1), (2, 10, 8), (10, 11, 1), (10, 12, 3), (12, 13, 1),
-            (11, 13, 4), (13, 14, 1), (2, 14, 9), (14, 15, 1), (9, 15, 4), (1, 15, 8),
-            (15, 16, 1), (1, 16, 3)]
-    for i, j, op in arcs:
-        psi[i - 1][j - 1] = op
-    return psi
-
-
-PAPER_LAW_PSI = _paper_law_psi()
 
 
 @dataclass
@@ -73,7 +47,7 @@ class NetworkOperator:
     outputs : sequence of int, optional
         1-based output nodes (default: the last node).
     bounds : sequence of (float, float), optional
-        Output bounds per output (default (-0.2, 0.2), the reentry control bounds).
+        Output bounds per output (default: none, i.e. the node clamp ``(-BIG, BIG)``).
     input_names : sequence of str, optional
         Names of the inputs for :meth:`formula` (default ``x1, x2, ...``).
     input_scale, input_offset : sequence of float, optional
@@ -116,7 +90,7 @@ class NetworkOperator:
             self.outputs = [L]
         self.outputs = [int(o) for o in self.outputs]
         if self.bounds is None:
-            self.bounds = [(-0.2, 0.2)] * len(self.outputs)
+            self.bounds = [(-BIG, BIG)] * len(self.outputs)
         self.bounds = [(float(lo), float(hi)) for lo, hi in self.bounds]
         if len(self.bounds) != len(self.outputs):
             raise MatrixError(f"{len(self.outputs)} outputs but {len(self.bounds)} bounds")
@@ -154,18 +128,6 @@ class NetworkOperator:
             self._program = None
 
     # -- constructors ---------------------------------------------------------------------
-    @classmethod
-    def basic_law(cls, q=PAPER_Q, size: int = 16) -> "NetworkOperator":
-        """The paper's basic law ``u = clip(q1 y1 + q2 y2, -0.2, 0.2)`` (Diveev & Shmalko, eqs. 24-25).
-
-        ``size`` pads the matrix with unused nodes (room for the GA's variations); the output is
-        node 7.
-        """
-        n0 = len(BASIC_LAW_PSI)
-        psi = np.zeros((max(size, n0), max(size, n0)), dtype=int)
-        psi[:n0, :n0] = BASIC_LAW_PSI
-        return cls(psi, nx=2, q=list(q), outputs=[n0], input_names=["y1", "y2"])
-
     @classmethod
     def linear(cls, gains, bias=None, bounds=None, size: int | None = None,
                input_names=None, input_scale=None, input_offset=None) -> "NetworkOperator":
@@ -220,11 +182,6 @@ class NetworkOperator:
         return cls(psi, nx=nx, q=q, outputs=outputs, bounds=bounds, input_names=input_names,
                    input_scale=input_scale, input_offset=input_offset)
 
-    @classmethod
-    def paper_law(cls) -> "NetworkOperator":
-        """The paper's found 16-node law with q1 = 2.259375, q2 = 1.953125 (Diveev & Shmalko)."""
-        return cls(np.array(PAPER_LAW_PSI), nx=2, q=list(PAPER_Q), input_names=["y1", "y2"])
-
     # -- evaluation -----------------------------------------------------------------------
     @property
     def size(self) -> int:
@@ -274,12 +231,14 @@ class NetworkOperator:
         return vals
 
     # -- persistence ----------------------------------------------------------------------
-    def to_dict(self) -> dict:
+    def to_dict(self, formula: bool = True) -> dict:
+        """The law as JSON-able data (``formula``: with its readable expression)."""
         d = {"psi": self.psi.tolist(), "nx": self.nx, "q": self.q, "outputs": self.outputs,
              "bounds": [list(b) for b in self.bounds], "input_names": self.input_names}
         if self._scaled:
             d["input_scale"], d["input_offset"] = self.input_scale, self.input_offset
-        d["formula"] = self.formula()
+        if formula:
+            d["formula"] = self.formula()
         return d
 
     @classmethod
@@ -317,6 +276,53 @@ class NetworkOperator:
         return NetworkOperator(self.psi.copy(), self.nx, q, list(self.outputs), list(self.bounds),
                                list(self.input_names), list(self.input_scale),
                                list(self.input_offset))
+
+    def with_structure(self, psi, q) -> "NetworkOperator":
+        """This law's inputs, outputs, bounds and input scaling with another matrix and
+        parameters (what a structure search varies)."""
+        return NetworkOperator(psi, self.nx, q, self.outputs, self.bounds, self.input_names,
+                               self.input_scale, self.input_offset)
+
+    def with_inputs(self, names, scales=None, offsets=None) -> "NetworkOperator":
+        """This law reading more inputs: ``names`` extend :attr:`input_names` (they must start
+        with them); the new inputs become source nodes no arc leaves yet (a structural
+        variation may connect them), with their ``scales`` / ``offsets`` (default 1 and 0).
+        The law's value is unchanged.  Identity nodes after the output, and an output node
+        that is an identity of one node, are dropped to stay within the controller's
+        :data:`L_MAX` nodes.
+
+        Raises
+        ------
+        MatrixError
+            ``names`` do not extend the inputs, the law has several outputs, or no node can be
+            freed for the new inputs.
+        """
+        names = list(names)
+        add = len(names) - self.nx
+        if add < 0 or names[:self.nx] != list(self.input_names):
+            raise MatrixError(f"the new inputs {names} must extend the law's inputs "
+                              f"{list(self.input_names)}")
+        if len(self.outputs) != 1:
+            raise MatrixError("only a law with one output can take more inputs")
+        psi, out = self.psi.copy(), self.outputs[0] - 1
+        while psi.shape[0] + add > L_MAX:
+            if out < psi.shape[0] - 1:                   # nodes after the output: unused
+                psi = psi[:-1, :-1]
+                continue
+            src = np.flatnonzero(psi[:out, out])
+            if len(src) != 1 or psi[src[0], out] != 1 or psi[out, out] not in (1, 2):
+                raise MatrixError(f"the law needs {add} free nodes for the new inputs and its "
+                                  f"output node is not an identity node that can be dropped")
+            psi, out = psi[:-1, :-1], int(src[0])        # an identity node: its source is out
+        n, nx = psi.shape[0], self.nx
+        keep = [k if k < nx else k + add for k in range(n)]
+        new = np.zeros((n + add, n + add), dtype=int)
+        new[np.ix_(keep, keep)] = psi
+        scale = list(self.input_scale) + list(scales if scales is not None else [1.0] * add)
+        offset = list(self.input_offset) + list(offsets if offsets is not None else [0.0] * add)
+        return NetworkOperator(new, len(names), list(self.q), [keep[out] + 1],
+                               bounds=list(self.bounds), input_names=names, input_scale=scale,
+                               input_offset=offset)
 
     # -- readable form --------------------------------------------------------------------
     def readable(self, digits: int = 6):

@@ -1,0 +1,118 @@
+"""How the variational GA encodes a law: the parameters q as Gray-coded bit strings
+(:class:`GrayCodec`) and the structure as a list of small variations of the basic matrix
+(:class:`StructureCodec`).
+
+References
+----------
+A.I. Diveev, E.A. Sofronova, "The network operator method in control problems", Vestnik RUDN,
+2007 (variations of the basic solution; Gray-coded parameters).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["GrayCodec", "StructureCodec", "bits_text", "bits_array"]
+
+
+def bits_text(bits) -> str:
+    return "".join(map(str, np.asarray(bits).tolist()))
+
+
+def bits_array(text: str) -> np.ndarray:
+    return (np.frombuffer(text.encode(), dtype=np.uint8) - ord("0")).copy()
+
+
+# -- parameters: Gray-coded bit strings ---------------------------------------------------------
+@dataclass(frozen=True)
+class GrayCodec:
+    """``n`` parameters, each ``int_bits + frac_bits`` Gray-coded bits mapped to ``[lo, hi)``.
+
+    With the defaults (4 + 12 bits, [0, 16)) a parameter is an integer part of 4 bits and a
+    fractional part of 12 bits, step 2^-12, as in the lab programs.
+    """
+
+    n: int
+    int_bits: int = 4
+    frac_bits: int = 12
+    lo: float = 0.0
+    hi: float = 16.0
+
+    @property
+    def bits_per(self) -> int:
+        return self.int_bits + self.frac_bits
+
+    @property
+    def n_bits(self) -> int:
+        return self.n * self.bits_per
+
+    @property
+    def step(self) -> float:
+        """The grid of the code: one unit of the last bit."""
+        return (self.hi - self.lo) / float(1 << self.bits_per)
+
+    def decode(self, bits) -> list:
+        bits = np.asarray(bits, dtype=np.uint8).reshape(self.n, self.bits_per)
+        # Gray -> binary: b_k = g_0 xor ... xor g_k
+        binary = np.bitwise_xor.accumulate(bits, axis=1)
+        weights = 1 << np.arange(self.bits_per - 1, -1, -1, dtype=np.int64)
+        ints = binary.astype(np.int64) @ weights
+        return list(self.lo + (self.hi - self.lo) * ints / float(1 << self.bits_per))
+
+    def encode(self, values) -> np.ndarray:
+        values = np.asarray(values, float)
+        full = 1 << self.bits_per
+        ints = np.clip(np.round((values - self.lo) / (self.hi - self.lo) * full), 0, full - 1)
+        ints = ints.astype(np.int64)
+        gray = ints ^ (ints >> 1)
+        shifts = np.arange(self.bits_per - 1, -1, -1)
+        return ((gray[:, None] >> shifts[None, :]) & 1).astype(np.uint8).ravel()
+
+
+# -- structure: variations of a network-operator matrix ------------------------------------------
+@dataclass
+class StructureCodec:
+    """Small variations (kind, i, j, op) of an upper-triangular matrix (0-based node numbers).
+
+    kinds: 0 replace the unary operation on an existing arc i->j; 1 replace the binary
+    operation at non-source node j; 2 add an arc i->j with unary operation ``op`` (target a
+    non-source node that has a binary operation); 3 remove the arc i->j if node j keeps another
+    incoming arc and node i another outgoing arc.  A variation with ``j < n_sources`` (such as
+    (0, 0, 0, 0)) is the identity.
+    """
+
+    size: int
+    n_sources: int
+    unary: tuple = tuple(range(1, 29))
+    binary: tuple = (1, 2, 3, 4)
+
+    IDENTITY = (0, 0, 0, 0)
+
+    def random(self, rng: np.random.Generator) -> tuple:
+        kind = int(rng.integers(0, 4))
+        j = int(rng.integers(self.n_sources, self.size))
+        i = int(rng.integers(0, j))
+        ops = self.binary if kind == 1 else self.unary
+        return (kind, i, j, int(ops[int(rng.integers(0, len(ops)))]))
+
+    def apply(self, psi: np.ndarray, variations) -> np.ndarray:
+        """A copy of ``psi`` with the applicable variations applied in order."""
+        psi = psi.copy()
+        for kind, i, j, op in variations:
+            if j < self.n_sources or i >= j or j >= self.size:
+                continue
+            if kind == 0:
+                if psi[i, j]:
+                    psi[i, j] = op
+            elif kind == 1:
+                if psi[j, j]:
+                    psi[j, j] = op
+            elif kind == 2:
+                if not psi[i, j] and psi[j, j]:
+                    psi[i, j] = op
+            elif kind == 3:
+                if psi[i, j] and np.count_nonzero(psi[:j, j]) > 1 \
+                        and np.count_nonzero(psi[i, i + 1:]) > 1:
+                    psi[i, j] = 0
+        return psi

@@ -1,0 +1,178 @@
+"""Parameter refinement inside the network-operator search: CMA-ES on the parameters q of
+promising structures.
+
+The Gray-coded bit flips of the variational GA search q poorly on the rugged landscapes of
+closed-loop laws; CMA-ES adapts its steps and their correlations.  After the initial population
+(``basis`` evaluations on the basic solution alone) and after every epoch (``evals``
+evaluations on each of the ``laws`` best members by the target, distinct structures), one
+CMA-ES per chosen member tunes q on the Gray code's grid; the best refined q replaces the
+member's.  A structure refined again continues its CMA-ES (mean, step size and covariance
+kept: one long search per structure rather than restarts); a structure not refined before
+starts from a copy of the latest search (most often its parent's, whose step size and
+covariance fit a neighbouring law).
+
+The GA owns the population; :class:`Refinement` owns the searches and says which members'
+parameters to fly and which to replace.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from descent_fmus.synthesis.methods.cma import CMA, IPOP_SIGMA, IPOP_STALL
+from descent_fmus.synthesis.methods.encoding import GrayCodec, bits_array, bits_text
+from descent_fmus.synthesis.methods.pareto import Target
+from descent_fmus.synthesis.methods.settings import check_settings, setting
+
+__all__ = ["RefineConfig", "Refinement"]
+
+
+@dataclass(frozen=True)
+class RefineConfig:
+    """CMA-ES refinement of the parameters inside the network-operator search (0 = off)."""
+
+    basis: int = setting(0, "CMA-ES evaluations on the basic solution's parameters before the "
+                            "structure search (0 = none)", 0, 10_000_000)
+    evals: int = setting(0, "CMA-ES evaluations per refined law after every epoch (0 = the "
+                            "GA alone)", 0, 10_000_000)
+    laws: int = setting(1, "laws refined after every epoch: the best by the target, distinct "
+                           "structures", 1, 64)
+    sigma: float = setting(0.3, "initial CMA-ES step, relative to each parameter's size",
+                           1e-12, 1e6)
+    popsize: int = setting(0, "CMA-ES candidates per generation (0 = pycma's default "
+                              "4 + 3 ln n)", 0, 10_000)
+
+    def __post_init__(self):
+        check_settings(self, "refine.")
+
+    @property
+    def active(self) -> bool:
+        return bool(self.basis or self.evals)
+
+
+@dataclass
+class _Search:
+    """One running refinement: the member it started from, its CMA-ES and the best so far."""
+
+    member: int
+    cma: CMA
+    evals: int
+    best_bits: np.ndarray
+    best_f: np.ndarray
+    best_cv: float
+
+
+class Refinement:
+    """The CMA-ES searches of one GA run (see the module docstring).
+
+    Parameters
+    ----------
+    codec : GrayCodec
+        The GA's coding of q (candidates are rounded to its grid, kept in its range).
+    config : RefineConfig
+    target : Target
+        The single objective CMA-ES minimises (after the problem's constraints).
+    """
+
+    def __init__(self, codec: GrayCodec, config: RefineConfig, target: Target):
+        self.codec, self.cfg, self.target = codec, config, target
+        self.pool: dict = {}          # structure key -> (CMA, bits of its best q) to continue
+        self.searches: list[_Search] | None = None
+        self.budget = 0
+
+    @property
+    def active(self) -> bool:
+        return self.searches is not None
+
+    def new_cma(self, q, seed: int) -> CMA:
+        p = self.codec
+        grid = lambda x: p.decode(p.encode(x))  # noqa: E731  (what the Gray code can hold)
+        return CMA(q, self.cfg.sigma, seed, popsize=self.cfg.popsize or None,
+                   bounds=(p.lo, p.hi - p.step), x_map=grid, restart_sigma=IPOP_SIGMA,
+                   restart_stall=IPOP_STALL)
+
+    def start(self, picks, budget: int, rng: np.random.Generator) -> None:
+        """Start a refinement of the members ``picks`` (``(index, member, structure key)``),
+        ``budget`` evaluations each; one seed per member is drawn from ``rng``."""
+        searches = []
+        for k, m, key in picks:
+            seed = int(rng.integers(0, 2 ** 31 - 1))
+            old = self.pool.pop(key, None)
+            q = self.codec.decode(m.bits)
+            if old is not None:
+                cma = old[0]
+            elif self.pool:
+                cma = next(reversed(self.pool.values()))[0].spawn(q, seed)
+            else:
+                cma = self.new_cma(q, seed)
+            searches.append(_Search(k, cma, 0, m.bits.copy(), m.f.copy(), m.cv))
+        self.searches, self.budget = searches, budget
+
+    def ask(self) -> list:
+        """``(member index, bits)`` of the next candidates of every search still running."""
+        out = []
+        for s in self.searches:
+            if s.evals < self.budget:
+                out += [(s.member, self.codec.encode(x)) for x in s.cma.ask()]
+        return out
+
+    def tell(self, members) -> bool:
+        """The evaluated members of the last :meth:`ask` (``f``, ``cv`` set), same order;
+        True when every search has spent its budget."""
+        i = 0
+        for s in self.searches:
+            if s.evals >= self.budget:
+                continue
+            n = s.cma.popsize
+            rows = members[i:i + n]
+            s.cma.tell(self.target.keys(np.array([m.f for m in rows]),
+                                        [m.cv for m in rows]))
+            for m in rows:
+                if self.target.better(m.f, s.best_f, m.cv, s.best_cv):
+                    s.best_bits, s.best_f, s.best_cv = m.bits.copy(), m.f.copy(), m.cv
+            s.evals += n
+            i += n
+        return all(s.evals >= self.budget for s in self.searches)
+
+    def finish(self, pop, key) -> list:
+        """End the refinement: ``(member index, bits, f, cv)`` of the members whose refined
+        parameters beat their own (the GA replaces them).  Every search stays in the pool
+        under its member's structure (``key(member)``) to continue later; beyond
+        ``4 * laws`` searches the oldest go."""
+        better = []
+        for s in self.searches:
+            m = pop[s.member]
+            bits = m.bits
+            if self.target.better(s.best_f, m.f, s.best_cv, m.cv):
+                better.append((s.member, s.best_bits.copy(), s.best_f.copy(), s.best_cv))
+                bits = s.best_bits
+            self.pool[key(m)] = (s.cma, bits_text(bits))
+        while len(self.pool) > self.cfg.laws * 4:
+            del self.pool[next(iter(self.pool))]
+        self.searches = None
+        return better
+
+    # -- checkpoint -----------------------------------------------------------------------
+    def state(self) -> dict:
+        pool = [{"key": k, "cma": c.state(), "b": b} for k, (c, b) in self.pool.items()]
+        if self.searches is None:
+            return {"pool": pool}
+        s = self.searches
+        return {"pool": pool, "members": [x.member for x in s], "evals": [x.evals for x in s],
+                "budget": self.budget, "cma": [x.cma.state() for x in s],
+                "best": [{"b": bits_text(x.best_bits), "f": x.best_f.tolist(), "cv": x.best_cv}
+                         for x in s]}
+
+    def load_state(self, st, q0) -> None:
+        st = st or {}
+        self.pool = {a["key"]: (self.new_cma(q0, 1).load_state(a["cma"]), a["b"])
+                     for a in st.get("pool", [])}
+        if "members" not in st:
+            self.searches = None
+            return
+        self.budget = st["budget"]
+        self.searches = [_Search(k, self.new_cma(q0, 1).load_state(c), n, bits_array(b["b"]),
+                                 np.array(b["f"], float), float(b.get("cv", 0.0)))
+                         for k, n, c, b in zip(st["members"], st["evals"], st["cma"],
+                                               st["best"])]

@@ -1,0 +1,138 @@
+"""Law structures of fixed form, built from any problem's inputs and outputs: a linear law, a
+full polynomial, a small tanh network -- all as network-operator matrices, so that they are
+start values of the same generic controller FMU as every other law.
+
+They are the fixed structures of the CMA-ES baselines (``synthesize --method cma-NAME``,
+:mod:`synthesis.methods.policy_search`) and can serve as a problem's basic solution.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from descent_fmus.synthesis.methods.law import NetworkOperator
+
+__all__ = ["monomials", "polynomial_law", "tanh_network_law"]
+
+
+def monomials(nx: int, degree: int) -> list:
+    """Exponent tuples of every monomial of total degree 1..``degree`` in ``nx`` inputs, by
+    degree (x1, x2, x1^2, x1 x2, x2^2, ...)."""
+    out = []
+
+    def rec(prefix, left, k):
+        if k == nx:
+            if sum(prefix) and sum(prefix) == d:
+                out.append(tuple(prefix))
+            return
+        for e in range(left, -1, -1):
+            rec(prefix + [e], left - e, k + 1)
+
+    for d in range(1, degree + 1):
+        rec([], d, 0)
+    return out
+
+
+#: unary operations that raise a value to the power 1, 2, 3 (identity, z^2, z^3)
+_POWER_OP = {1: 1, 2: 2, 3: 14}
+
+
+def _finish(psi, nx, q, out_node, size, template: NetworkOperator):
+    """Pad with identity nodes to ``size`` (spare nodes for structural variations) and build
+    the law with the template's inputs, bounds and scaling."""
+    node = out_node
+    n = psi.shape[0]
+    full = np.zeros((size, size), dtype=int)
+    full[:n, :n] = psi
+    for j in range(n, size):
+        full[j, j] = 1
+        full[node, j] = 1
+        node = j
+    return NetworkOperator(full, nx=nx, q=list(q), outputs=[node + 1],
+                           bounds=[template.bounds[0]], input_names=list(template.input_names),
+                           input_scale=list(template.input_scale),
+                           input_offset=list(template.input_offset))
+
+
+def polynomial_law(template: NetworkOperator, degree: int = 3, coefficients=None,
+                   size: int | None = None) -> NetworkOperator:
+    """u = clip(c0 + sum_m c_m x^m): a full polynomial of ``degree`` in the template's inputs.
+
+    Nodes: the inputs, the coefficients (c0 first, then one per monomial in :func:`monomials`
+    order), one product node per monomial (c_m times the powers of its inputs: arcs with the
+    unary operations z, z^2, z^3) and their sum (with c0) as the output; identity nodes up to
+    ``size``.  Inputs, bounds and input scaling are the template's (the basic law of a problem).
+    """
+    nx = template.nx
+    mons = monomials(nx, degree)
+    if max(max(m) for m in mons) > 3:
+        raise ValueError("powers above 3 have no unary operation; use degree <= 3")
+    nq = 1 + len(mons)
+    core = nx + nq + len(mons) + 1
+    size = core if size is None else int(size)
+    if size < core:
+        raise ValueError(f"a degree-{degree} polynomial in {nx} inputs needs {core} nodes")
+    q = np.zeros(nq) if coefficients is None else np.asarray(coefficients, float)
+    psi = np.zeros((core, core), dtype=int)
+    total = core - 1
+    psi[total, total] = 1
+    psi[nx, total] = 1                                   # c0
+    for k, m in enumerate(mons):
+        node = nx + nq + k
+        psi[node, node] = 2
+        psi[nx + 1 + k, node] = 1                        # c_m
+        for i, e in enumerate(m):
+            if e:
+                psi[i, node] = _POWER_OP[e]
+        psi[node, total] = 1
+    return _finish(psi, nx, q, total, size, template)
+
+
+def tanh_network_law(template: NetworkOperator, hidden: int = 3, weights=None,
+                     size: int | None = None, seed: int = 0) -> NetworkOperator:
+    """u = clip(c + sum_i v_i tanh((w_i . x + b_i) / 2)): one hidden layer of ``hidden`` units.
+
+    Parameters q (in this order): per unit ``w_i1..w_inx, b_i``, then ``v_1..v_hidden``, then
+    ``c``.  Nodes per unit: one product w_ij x_j per input, their sum with b_i, the product of
+    v_i and the unit's output (unary operation 8, (1 - e^-z)/(1 + e^-z) = tanh(z/2)); then the
+    output sum.  Default weights: small seeded random numbers (a random start, as usual for
+    networks).
+    """
+    nx = template.nx
+    nq = hidden * (nx + 1) + hidden + 1
+    core = nx + nq + hidden * (nx + 2) + 1
+    size = core if size is None else int(size)
+    if size < core:
+        raise ValueError(f"a {nx}-{hidden}-1 tanh network needs {core} nodes")
+    if weights is None:
+        rng = np.random.default_rng(seed)
+        weights = np.concatenate([rng.normal(0.0, 0.5, hidden * (nx + 1)),
+                                  rng.normal(0.0, 0.1, hidden), [0.0]])
+    q = np.asarray(weights, float)
+    if len(q) != nq:
+        raise ValueError(f"a {nx}-{hidden}-1 network has {nq} parameters, got {len(q)}")
+    psi = np.zeros((core, core), dtype=int)
+    total = core - 1
+    psi[total, total] = 1
+    psi[nx + nq - 1, total] = 1                           # c
+    node = nx + nq
+    for i in range(hidden):
+        w0 = nx + i * (nx + 1)
+        prods = []
+        for j in range(nx):
+            psi[node, node] = 2
+            psi[j, node] = 1
+            psi[w0 + j, node] = 1
+            prods.append(node)
+            node += 1
+        s = node
+        psi[s, s] = 1
+        for pnode in prods:
+            psi[pnode, s] = 1
+        psi[w0 + nx, s] = 1                               # b_i
+        node += 1
+        psi[node, node] = 2
+        psi[s, node] = 8                                  # tanh(z/2)
+        psi[nx + hidden * (nx + 1) + i, node] = 1         # v_i
+        psi[node, total] = 1
+        node += 1
+    return _finish(psi, nx, q, total, size, template)

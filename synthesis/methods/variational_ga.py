@@ -1,0 +1,441 @@
+"""The variational genetic algorithm of the network-operator method (basic-solution principle).
+
+An individual is a list of ``lchr`` small variations of the basic matrix plus the parameters q as
+a Gray-coded bit string (:mod:`synthesis.methods.encoding`).  Evaluating it means: start from the
+basic matrix, apply the variations in order (an inapplicable one is skipped), decode q, fly the
+closed loop.  Ranking is by ``Lh``, the number of population members that constraint-dominate an
+individual (:mod:`synthesis.methods.pareto`; Pareto set: ``Lh = 0``).  Every ``epoch``
+generations the individual closest to the utopia point becomes the new basic solution.
+
+Ask/tell (:class:`~synthesis.methods.base.Method`); the random generator is injected; same
+seed => same result; :meth:`VariationalGA.state` is a JSON-serialisable checkpoint.  The run's
+archive of non-dominated laws belongs to the run loop, the parameter refinement by CMA-ES to
+:class:`~synthesis.methods.refinement.Refinement`.
+
+Departures from the lab algorithm (the authors' Free-Pascal programs), each for a reason:
+
+* the children of a generation are produced first and evaluated as one batch (so a worker pool or
+  a Dask cluster can evaluate them in parallel), then inserted one by one exactly as in the lab
+  algorithm (a child replaces the worst individual, never individual 0, if its ``Lh`` is smaller);
+* among equally bad individuals the most crowded one is replaced (NSGA-II crowding distance),
+  and once the whole population is non-dominated a non-dominated child replaces the most crowded
+  member if it is less crowded itself (the lab rule would freeze the population there), which
+  keeps the front spread; a child whose objectives equal an existing member's is dropped;
+* the epoch normalises the objectives over the current Pareto set, not the whole population, so a
+  few penalised laws (a flight that never reaches hf) do not flatten the normalisation;
+* constraints (a total violation per law) rank before the objectives (constraint-domination);
+* optional parameter refinement by CMA-ES after the initial population and after every epoch.
+
+References
+----------
+A.I. Diveev, E.Yu. Shmalko (reentry paper), section "Синтез"; A.I. Diveev, E.A. Sofronova, "The
+network operator method in control problems", Vestnik RUDN, 2007.
+"""
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from descent_fmus.synthesis.methods.base import Candidate, Method
+from descent_fmus.synthesis.methods.encoding import (GrayCodec, StructureCodec, bits_array,
+                                                     bits_text)
+from descent_fmus.synthesis.methods.pareto import (Target, crowding_distance, dominance_counts,
+                                                   dominance_matrix)
+from descent_fmus.synthesis.methods.refinement import RefineConfig, Refinement
+from descent_fmus.synthesis.methods.settings import check_settings, setting
+
+__all__ = ["GAConfig", "VariationalGA", "PAPER_UNARY", "PAPER_BINARY", "WIDE_UNARY",
+           "WIDE_BINARY"]
+
+#: The operations the variations may use by default: the paper's set (the seeds' numbering).
+PAPER_UNARY = (1, 3, 4, 5, 8, 9, 10, 14, 15)
+PAPER_BINARY = (1, 2)
+#: The authors' wider operation set (``--wide-ops``).
+WIDE_UNARY, WIDE_BINARY = tuple(range(1, 29)), (1, 2, 3, 4)
+
+
+@dataclass(frozen=True)
+class GAConfig:
+    """Sizes and rates of the variational GA."""
+
+    population: int = setting(256, "individuals in the population", 4, 100_000)
+    crossovers: int = setting(32, "crossover attempts per generation (4 children each)",
+                              1, 100_000)
+    lchr: int = setting(8, "variations per individual (0 = parameters of the basic law only)",
+                        0, 256)
+    epoch: int = setting(12, "generations between changes of the basic solution", 1, 1_000_000)
+    p_mutation: float = setting(0.7, "probability that a child mutates", 0.0, 1.0)
+    alpha: float = setting(0.4, "crossover probability (1 + alpha Lh) / (1 + Lh)", 0.0, 1e6)
+    ksearch: int = setting(4, "tournament size for the first parent", 1, 1_000)
+    elite_trim: int = setting(4, "Pareto members whose variation lists are trimmed per epoch",
+                              0, 1_000)
+    basis_rule: str = setting("compromise", "the epoch's new basis: 'compromise' (nearest the "
+                              "utopia point, the lab's rule) or 'target' (best by the target)",
+                              choices=("compromise", "target"))
+
+    def __post_init__(self):
+        check_settings(self, "ga.")
+
+
+@dataclass
+class _Member:
+    variations: list
+    bits: np.ndarray
+    f: np.ndarray = field(default=None)
+    cv: float = 0.0
+
+
+def _default_decode(psi, q):
+    return psi, q
+
+
+class VariationalGA(Method):
+    """Multi-objective variational GA (see the module docstring).
+
+    Parameters
+    ----------
+    params : GrayCodec
+        Coding of the parameters q.
+    q0 : sequence of float
+        Parameters of the basic solution.
+    rng : numpy.random.Generator
+        The only source of randomness.
+    config : GAConfig
+    structure : StructureCodec, optional
+        Variations of the basic matrix ``psi0``; None for a pure parameter search.
+    psi0 : ndarray, optional
+        The basic matrix.
+    decode : callable, optional
+        ``decode(psi, q) -> law`` of a candidate (default: ``(psi, q)``).
+    target : Target, optional
+        The single objective of the refinement and of ``basis_rule='target'``.
+    refine : RefineConfig, optional
+        CMA-ES refinement of the parameters (default: off).
+    generations : int, optional
+        Generations after which :meth:`finished` (default: never).
+    """
+
+    def __init__(self, params: GrayCodec, q0, rng: np.random.Generator, config: GAConfig,
+                 structure: StructureCodec | None = None, psi0=None, decode=None,
+                 target: Target | None = None, refine: RefineConfig | None = None,
+                 generations: int | None = None):
+        refine = refine or RefineConfig()
+        if (refine.active or config.basis_rule == "target") and target is None:
+            raise ValueError("parameter refinement (refine evals or basis > 0) or basis_rule "
+                             "'target' needs a target")
+        self.params, self.cfg, self.rng, self.target = params, config, rng, target
+        self.refine_cfg = refine
+        self.refinement = Refinement(params, refine, target) if target is not None else None
+        self._refine_due = False
+        self.structure = structure
+        self.psi0 = None if psi0 is None else np.array(psi0, dtype=int)
+        self.q0 = list(q0)
+        self.decode = decode or _default_decode
+        self.generations = generations
+        self.generation = 0
+        self.evaluations = 0
+        self.pop: list[_Member] = []
+        self.lh = np.zeros(0, int)
+        self._epoch_due = False
+        self._pending_trim = []
+        self.history = []             # per generation: (generation, evaluations, n_front, best)
+        self._lchr = config.lchr if structure is not None else 0
+        self._pending = ("init", self._initial_members())
+
+    def _initial_members(self) -> list:
+        params, rng, structure, lchr = self.params, self.rng, self.structure, self._lchr
+        basis_bits = params.encode(self.q0)
+        members = [_Member([StructureCodec.IDENTITY] * lchr, basis_bits)]
+        while len(members) < self.cfg.population:
+            if len(members) % 2:   # half random parameters, half the basis q with a few flips
+                bits = rng.integers(0, 2, params.n_bits).astype(np.uint8)
+            else:
+                bits = basis_bits.copy()
+                for k in rng.integers(0, params.n_bits, 1 + int(rng.integers(0, 4))):
+                    bits[k] ^= 1
+            var = [structure.random(rng) for _ in range(lchr)] if structure else []
+            members.append(_Member(var, bits))
+        return members
+
+    # -- decoding -------------------------------------------------------------------------
+    def matrix(self, member: _Member):
+        if self.structure is None:
+            return None
+        return self.structure.apply(self.psi0, member.variations)
+
+    def candidate(self, member: _Member) -> Candidate:
+        return Candidate(self.decode(self.matrix(member), self.params.decode(member.bits)),
+                         {"variations": [list(v) for v in member.variations]})
+
+    @property
+    def F(self) -> np.ndarray:
+        return np.array([m.f for m in self.pop])
+
+    @property
+    def CV(self) -> np.ndarray:
+        return np.array([m.cv for m in self.pop], float)
+
+    # -- ask / tell -----------------------------------------------------------------------
+    def ask(self) -> list[Candidate]:
+        """Candidates to evaluate next (the initial population, children, a refinement's or
+        an epoch's re-evaluations)."""
+        if self._pending is None and self._refine_due and not self.refinement.active:
+            self._refine_due = False
+            self._start_refine()
+        if self._pending is None and self.refinement is not None and self.refinement.active:
+            members = [_Member(list(self.pop[k].variations), bits)
+                       for k, bits in self.refinement.ask()]
+            self._pending = ("refine", members)
+        if self._pending is None:
+            if self.generation > 0 and self.generation % self.cfg.epoch == 0 \
+                    and self.structure is not None and self._epoch_due:
+                self._epoch_due = False
+                self._pending = ("epoch", self._new_basis())
+            else:
+                self._pending = ("children", self._children())
+        return [self.candidate(m) for m in self._pending[1]]
+
+    def tell(self, F, cv=None) -> None:
+        """Objective rows and violations of the candidates of the last :meth:`ask`."""
+        if self._pending is None:
+            raise RuntimeError("tell() without a pending ask()")
+        phase, members = self._pending
+        F = np.asarray(F, float)
+        cv = np.zeros(len(members)) if cv is None else np.asarray(cv, float)
+        if F.shape[0] != len(members) or not np.all(np.isfinite(F)) \
+                or cv.shape != (len(members),) or not np.all(np.isfinite(cv)):
+            raise ValueError(f"expected {len(members)} finite objective rows and violations, "
+                             f"got shapes {F.shape}, {cv.shape}")
+        self.evaluations += len(members)
+        for m, f, c in zip(members, F, cv):
+            m.f, m.cv = f, float(c)
+        self._pending = None
+        if phase in ("init", "epoch"):
+            self._new_population(phase, members)
+        elif phase == "trim":
+            self._finish_trim(members)
+        elif phase == "refine":
+            if self.refinement.tell(members):
+                self._finish_refine()
+        else:
+            for child in members:
+                self._insert(child)
+            self.generation += 1
+            self._epoch_due = True
+            front = self.F[self.lh == 0]
+            self.history.append((self.generation, self.evaluations, int(len(front)),
+                                 front.min(axis=0).tolist()))
+
+    def _new_population(self, phase: str, members) -> None:
+        self.pop = members
+        self.lh = dominance_counts(self.F, self.CV)
+        self._refine_due = self.refine_cfg.evals > 0
+        if phase == "init" and self.refine_cfg.basis > 0:
+            # the basic solution's parameters first, with a budget of their own: the
+            # structure search then builds on a tuned basis
+            self._refine_due = False
+            self._start_refine(basis=True)
+        if phase == "epoch":
+            self._pending_trim = self._trim_candidates()
+            if self._pending_trim:
+                self._pending = ("trim", [c for _, c in self._pending_trim])
+
+    def at_boundary(self) -> bool:
+        return self._pending is None
+
+    def finished(self) -> bool:
+        return (self.generations is not None and bool(self.pop) and self._pending is None
+                and self.generation >= self.generations
+                and not (self.refinement is not None and self.refinement.active))
+
+    def status(self) -> dict:
+        return {"gen": self.generation, "front": int(np.sum(self.lh == 0))}
+
+    # -- generation -----------------------------------------------------------------------
+    def _tournament(self) -> int:
+        k = self.rng.integers(0, len(self.pop), self.cfg.ksearch)
+        return int(k[np.argmin(self.lh[k])])
+
+    def _mutate(self, m: _Member) -> None:
+        if self.rng.random() < self.cfg.p_mutation:
+            if self._lchr:
+                m.variations[int(self.rng.integers(0, self._lchr))] = \
+                    self.structure.random(self.rng)
+            m.bits[int(self.rng.integers(0, self.params.n_bits))] ^= 1
+
+    def _children(self) -> list:
+        rng, cfg = self.rng, self.cfg
+        children = []
+        for _ in range(cfg.crossovers):
+            a = self._tournament()
+            b = int(rng.integers(0, len(self.pop)))
+            lh = max(self.lh[a], self.lh[b])
+            if rng.random() > (1.0 + cfg.alpha * lh) / (1.0 + lh):
+                continue
+            pa, pb = self.pop[a], self.pop[b]
+            cb = int(rng.integers(1, self.params.n_bits)) if self.params.n_bits > 1 else 0
+            cv = int(rng.integers(0, self._lchr + 1)) if self._lchr else 0
+            bits1 = np.concatenate([pa.bits[:cb], pb.bits[cb:]])
+            bits2 = np.concatenate([pb.bits[:cb], pa.bits[cb:]])
+            var1 = pa.variations[:cv] + pb.variations[cv:]
+            var2 = pb.variations[:cv] + pa.variations[cv:]
+            for var, bits in ((list(pa.variations), bits1), (list(pb.variations), bits2),
+                              (var1, bits1.copy()), (var2, bits2.copy())):
+                child = _Member(list(var), bits.copy())
+                self._mutate(child)
+                children.append(child)
+        return children
+
+    def _replace(self, w: int, member: _Member) -> None:
+        """Member ``w`` becomes ``member``; the dominance counts follow incrementally."""
+        F, C, old = self.F, self.CV, self.pop[w]
+        dom_old = dominance_matrix([old.f], [old.cv], F, C)[0]
+        dom_new = dominance_matrix([member.f], [member.cv], F, C)[0]
+        dominated_by = dominance_matrix(F, C, [member.f], [member.cv])[:, 0]
+        self.lh = self.lh - dom_old + dom_new
+        self.pop[w] = member
+        self.lh[w] = int(dominated_by.sum()) - int(dominated_by[w])
+
+    def _insert(self, child: _Member) -> None:
+        F, C, f = self.F, self.CV, child.f
+        if np.any(np.all(F == f, axis=1) & (C == child.cv)):
+            return                       # same objectives as a member: keep diversity
+        lh_child = int(dominance_matrix(F, C, [f], [child.cv])[:, 0].sum())
+        lh = self.lh.copy()
+        lh[0] = -1                       # never replace individual 0 (the basic solution)
+        worst_lh = lh.max()
+        if lh_child > worst_lh or (lh_child == worst_lh and worst_lh > 0):
+            return
+        cand = np.flatnonzero(lh == worst_lh)
+        if lh_child == worst_lh:
+            # whole population non-dominated: the child replaces the most crowded member if it
+            # is itself less crowded there (keeps the front spreading instead of freezing)
+            cd = crowding_distance(np.vstack([F[cand], f]))
+            if cd[-1] <= cd[:-1].min():
+                return
+            w = int(cand[np.argmin(cd[:-1])])
+        elif len(cand) > 1:
+            w = int(cand[np.argmin(crowding_distance(F[cand]))])
+        else:
+            w = int(cand[0])
+        self._replace(w, child)
+
+    # -- epoch ----------------------------------------------------------------------------
+    def _best_compromise(self) -> int:
+        idx = np.flatnonzero(self.lh == 0)
+        F = self.F[idx]
+        lo, hi = F.min(axis=0), F.max(axis=0)
+        span = np.where(hi > lo, hi - lo, 1.0)
+        d = np.sqrt((((F - lo) / span) ** 2).sum(axis=1))
+        return int(idx[np.argmin(d)])
+
+    def _new_basis(self) -> list:
+        # basis_rule "target": the best law by the target becomes the basis (member 0, never
+        # replaced), so the law the run reports stays in the population and its parameter
+        # search continues; "compromise": the member nearest the utopia point (the lab's rule,
+        # which drops the old basis even when it is the best law by the target)
+        k = int(self.target.order(self.F, self.CV)[0]) \
+            if self.cfg.basis_rule == "target" and self.target is not None \
+            else self._best_compromise()
+        best = self.pop[k]
+        self.psi0 = self.matrix(best)
+        self.q0 = self.params.decode(best.bits)
+        members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]
+        members += [_Member(list(m.variations), m.bits.copy()) for m in self.pop[1:]]
+        return members
+
+    def _trim_candidates(self) -> list:
+        """Prefixes of the variation lists of a few Pareto members (the lab's elite step)."""
+        front = [k for k in np.flatnonzero(self.lh == 0) if k != 0]
+        if not front or self.cfg.elite_trim <= 0:
+            return []
+        picks = self.rng.choice(front, size=min(self.cfg.elite_trim, len(front)), replace=False)
+        out = []
+        for k in picks:
+            m = self.pop[int(k)]
+            for n in range(self._lchr):
+                out.append(((int(k), n), _Member(list(m.variations[:n]) +
+                                                 [StructureCodec.IDENTITY] * (self._lchr - n),
+                                                 m.bits.copy())))
+        return out
+
+    def _finish_trim(self, evaluated) -> None:
+        best = {}
+        for ((k, n), _), m in zip(self._pending_trim, evaluated):
+            if k in best:
+                continue
+            old = self.pop[k]
+            if m.cv <= old.cv and np.all(m.f <= old.f):   # a shorter prefix, nothing worse
+                best[k] = m
+        for k, m in best.items():
+            self.pop[k] = m
+        if best:
+            self.lh = dominance_counts(self.F, self.CV)
+        self._pending_trim = []
+
+    # -- parameter refinement (synthesis.methods.refinement) -------------------------------
+    def _structure_key(self, m: _Member) -> str:
+        if self.structure is None:
+            return ""
+        return hashlib.sha1(self.matrix(m).tobytes()).hexdigest()
+
+    def _start_refine(self, basis: bool = False) -> None:
+        """Refine member 0 alone (``basis``) or the ``laws`` best members by the target with
+        distinct structures (feasible first)."""
+        if basis:
+            picks, budget = [0], self.refine_cfg.basis
+        else:
+            picks, seen = [], set()
+            for k in self.target.order(self.F, self.CV):
+                if len(picks) >= self.refine_cfg.laws:
+                    break
+                key = self._structure_key(self.pop[int(k)])
+                if key not in seen:
+                    seen.add(key)
+                    picks.append(int(k))
+            budget = self.refine_cfg.evals
+        self.refinement.start([(k, self.pop[k], self._structure_key(self.pop[k]))
+                               for k in picks], budget, self.rng)
+
+    def _finish_refine(self) -> None:
+        """The refined parameters replace those of the members they started from."""
+        for k, bits, f, cv in self.refinement.finish(self.pop, self._structure_key):
+            self.pop[k] = _Member(list(self.pop[k].variations), bits, f, cv)
+            if k == 0:
+                self.q0 = self.params.decode(bits)
+        self.lh = dominance_counts(self.F, self.CV)
+
+    # -- checkpoint -----------------------------------------------------------------------
+    def state(self) -> dict:
+        """JSON-serialisable state (restores to the same future as an uninterrupted run)."""
+        if self._pending is not None:
+            raise RuntimeError("checkpoint only between tell() and ask()")
+        return {
+            "generation": self.generation, "evaluations": self.evaluations,
+            "psi0": None if self.psi0 is None else self.psi0.tolist(), "q0": self.q0,
+            "rng": self.rng.bit_generator.state, "epoch_due": self._epoch_due,
+            "history": self.history,
+            "population": [{"v": [list(v) for v in m.variations], "b": bits_text(m.bits),
+                            "f": m.f.tolist(), "cv": m.cv} for m in self.pop],
+            "refine_due": self._refine_due,
+            "refine": None if self.refinement is None else self.refinement.state(),
+        }
+
+    def load_state(self, st: dict) -> "VariationalGA":
+        self.generation, self.evaluations = st["generation"], st["evaluations"]
+        self.psi0 = None if st["psi0"] is None else np.array(st["psi0"], dtype=int)
+        self.q0 = list(st["q0"])
+        self.rng.bit_generator.state = st["rng"]
+        self._epoch_due = st["epoch_due"]
+        self.history = [tuple(h) for h in st["history"]]
+        self.pop = [_Member([tuple(v) for v in m["v"]], bits_array(m["b"]),
+                            np.array(m["f"], float), float(m.get("cv", 0.0)))
+                    for m in st["population"]]
+        self.lh = dominance_counts(self.F, self.CV)
+        self._pending = None
+        self._refine_due = st.get("refine_due", False)
+        if self.refinement is not None:
+            self.refinement.load_state(st.get("refine"), self.q0)
+        return self
