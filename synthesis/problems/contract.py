@@ -1,18 +1,29 @@
-"""What a network-operator synthesis solves: :class:`SynthesisProblem`, its :class:`Budget` and
-:class:`Report`.
+"""What a synthesis solves: the problem contract every problem shares.
 
-A problem names the closed loop (a :class:`~synthesis.fmi.closed_loop.Wiring` of a plant FMU and the
-generic ``NetworkOperatorController`` FMU), the initial states every candidate law is flown from,
-the objectives computed from those flights, the basic law the variational GA starts from and the
-budget of a default run.  The evaluator needs nothing else: it knows no plant.
+A :class:`SynthesisProblem` names the closed loop (a :class:`~synthesis.fmi.closed_loop.Wiring`
+of a plant FMU and the generic ``NetworkOperatorController`` FMU), the initial states every
+candidate law is flown from, and what is computed from those flights:
 
-Problems come from two places: the systems of this package (``synthesis/systems/<stem>/``) and
-declarative problem files for any FMI 2.0 co-simulation plant (:mod:`synthesis.problems.files`).
-A problem is sent to worker processes as it is, so everything in it must pickle (module-level
-functions, plain objects).
+* **objectives** -- ``objectives(flights) -> (f, extras)``: each flight is a
+  :class:`~synthesis.fmi.closed_loop.ClosedLoopResult` that carries the start values it was
+  flown from (``flight.start``), so an objective never re-zips results with its own copy of the
+  initial states;
+* **constraints** -- :class:`Constraint`: a per-flight value with a bound, aggregated over the
+  initial states; their total violation ranks before the objectives everywhere
+  (constraint-domination, :mod:`synthesis.methods.pareto`);
+* the **recipe**: the basic law the search starts from, its :class:`Budget` (flights,
+  generations, wall time, seed), the GA's sizes (:class:`~synthesis.methods.variational_ga.GAConfig`),
+  the CMA-ES refinement (:class:`~synthesis.methods.refinement.RefineConfig`), the CMA-ES
+  target, the fixed-structure baselines.
+
+Problems come from two places -- the systems of this package (``synthesis/systems/<stem>/``) and
+problem files for any FMI 2.0 co-simulation plant (:mod:`synthesis.problems.files`) -- and a file
+can say everything a registered problem says.  A problem is sent to worker processes as it is,
+so everything in it must pickle (module-level functions, plain objects).
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Mapping, Sequence
@@ -20,58 +31,119 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, Wiring
-from descent_fmus.synthesis.methods.ga import GAConfig
 from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.pareto import Target
+from descent_fmus.synthesis.methods.refinement import RefineConfig
+from descent_fmus.synthesis.methods.settings import (SettingError, check_settings,
+                                                     replace_settings, setting)
+from descent_fmus.synthesis.methods.variational_ga import PAPER_BINARY, PAPER_UNARY, GAConfig
+from descent_fmus.synthesis.problems.runner import Runner
 
-__all__ = ["Budget", "Report", "SynthesisProblem", "ObjectiveFunction"]
+__all__ = ["Budget", "Constraint", "Outcome", "ProblemOption", "Report", "SynthesisProblem",
+           "ObjectiveFunction", "SETTING_GROUPS", "INVALID_VIOLATION", "AGGREGATES",
+           "start_values", "recipe"]
 
-#: ``objectives(results) -> (f, extras)``: ``results`` one ClosedLoopResult per initial state,
-#: ``f`` the objective vector (finite floats), ``extras`` reported values (JSON-able scalars).
+#: ``objectives(flights) -> (f, extras)``: ``flights`` one ClosedLoopResult per initial state
+#: flown (``flight.start`` its start values), ``f`` the objective vector (finite floats),
+#: ``extras`` reported values (JSON-able scalars).
 ObjectiveFunction = Callable[[Sequence[ClosedLoopResult]], tuple]
 
-#: The operations the variations may use by default: the paper's set (seed numbering).
-PAPER_UNARY = (1, 3, 4, 5, 8, 9, 10, 14, 15)
-PAPER_BINARY = (1, 2)
+#: Violation of a constraint whose value cannot be computed (never a NaN in a result).
+INVALID_VIOLATION = 1e9
+
+#: How a per-flight value is aggregated over the initial states.
+AGGREGATES = {"max": max, "min": min, "sum": sum, "mean": lambda v: sum(v) / len(v)}
 
 
 @dataclass(frozen=True)
 class Budget:
-    """How much a synthesis run spends: GA sizes, generations and the random seed.
+    """How much a run spends; the run loop ends at the first limit reached."""
 
-    A problem carries its default budget; the command line overrides single fields.
-    """
-
-    population: int = 256
-    generations: int = 400
-    crossovers: int = 32      #: crossover attempts per generation (4 children each)
-    lchr: int = 8             #: variations per individual (0 = parameters of the basic law only)
-    epoch: int = 12           #: generations between changes of the basic solution
-    seed: int = 1
-    elite_trim: int = 4       #: Pareto members whose variation lists are trimmed per epoch
-    refine_evals: int = 0     #: CMA-ES evaluations per refined law and epoch (0 = GA only)
-    refine_laws: int = 1      #: laws whose parameters CMA-ES refines per epoch
-    refine_basis: int = 0     #: CMA-ES evaluations on the basic solution before the structure
-                              #: search (0 = none)
-    flights: int = 0          #: flight budget: cma-* runs fly this many; the GA stops there
-                              #: too (0 = by generations only)
-    basis_rule: str = "compromise"  #: the epoch's new basis (GAConfig.basis_rule)
+    flights: int = setting(0, "flight budget: laws flown, each over all the problem's initial "
+                              "states (0 = none; a cma-* method needs one)", 0, 1_000_000_000)
+    generations: int = setting(400, "generations of the variational GA (a fixed-structure "
+                                    "search ends by flights)", 0, 10_000_000)
+    seconds: float = setting(0.0, "wall-clock budget [s] (0 = none): the run ends at the first "
+                                  "step past it", 0.0, 1e8)
+    seed: int = setting(1, "random seed; same seed, same result", 0, 2 ** 32 - 1)
 
     def __post_init__(self):
-        if self.generations < 0:
-            raise ValueError(f"generations must be >= 0, got {self.generations}")
-        if self.flights < 0:
-            raise ValueError(f"flights must be >= 0, got {self.flights}")
-        self.ga_config()          # validates the GA sizes
+        check_settings(self, "budget.")
 
-    def ga_config(self) -> GAConfig:
-        return GAConfig(population=self.population, crossovers=self.crossovers,
-                        lchr=self.lchr, epoch=self.epoch, elite_trim=self.elite_trim,
-                        refine_evals=self.refine_evals, refine_laws=self.refine_laws,
-                        refine_basis=self.refine_basis, basis_rule=self.basis_rule)
 
-    def with_(self, **changes) -> "Budget":
-        """A copy with the given fields changed (``None`` values are ignored)."""
-        return replace(self, **{k: v for k, v in changes.items() if v is not None})
+#: The settings of a problem's recipe: (table / attribute, dataclass, command-line prefix).
+#: The CLI options of ``synthesize`` and the tables of problem files are derived from it.
+SETTING_GROUPS = (("budget", Budget, ""), ("ga", GAConfig, ""), ("refine", RefineConfig,
+                                                                  "refine_"))
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """A per-flight value that must stay within a bound, aggregated over the initial states.
+
+    Attributes
+    ----------
+    name : str
+    flight : callable
+        ``flight(result) -> float`` for one flight (module-level or picklable).
+    bound : float
+    sense : {"<=", ">="}
+        The aggregated value must be ``<= bound`` (or ``>= bound``).
+    over_states : {"max", "min", "mean", "sum"}
+        Aggregate over the flights of a law (e.g. "max": every start must meet the bound).
+    scale : float, optional
+        Unit of the violation (default ``max(|bound|, 1)``), so that constraints of different
+        units add up to one total violation.
+    """
+
+    name: str
+    flight: Callable
+    bound: float
+    sense: str = "<="
+    over_states: str = "max"
+    scale: float | None = None
+
+    def __post_init__(self):
+        if self.sense not in ("<=", ">="):
+            raise ValueError(f"constraint {self.name}: sense must be '<=' or '>=', got "
+                             f"{self.sense!r}")
+        if self.over_states not in AGGREGATES:
+            raise ValueError(f"constraint {self.name}: over_states must be one of "
+                             f"{', '.join(AGGREGATES)}, got {self.over_states!r}")
+        if not math.isfinite(self.bound) or (self.scale is not None and not self.scale > 0):
+            raise ValueError(f"constraint {self.name}: need a finite bound and a scale > 0")
+
+    def value(self, flights) -> float:
+        """The aggregated value over ``flights``."""
+        return float(AGGREGATES[self.over_states]([float(self.flight(f)) for f in flights]))
+
+    def violation(self, value: float) -> float:
+        """How far ``value`` lies outside the bound, in units of :attr:`scale` (0 = met)."""
+        if not math.isfinite(value):
+            return INVALID_VIOLATION
+        excess = value - self.bound if self.sense == "<=" else self.bound - value
+        scale = self.scale if self.scale is not None else max(abs(self.bound), 1.0)
+        return min(max(excess, 0.0) / scale, INVALID_VIOLATION)
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What one law's flights gave: objectives, total constraint violation, reported values."""
+
+    f: tuple
+    cv: float
+    extras: dict
+
+
+@dataclass(frozen=True)
+class ProblemOption:
+    """A variant of a problem the command line can choose (``synthesize --option NAME=VALUE``),
+    e.g. the statistic of the miss over a sample set: ``apply(problem, value)`` returns the
+    variant (ValueError with a one-line message for a bad value)."""
+
+    name: str
+    help: str
+    apply: Callable
 
 
 class Report:
@@ -101,7 +173,7 @@ class Report:
 
 @dataclass(frozen=True)
 class SynthesisProblem:
-    """A network-operator synthesis problem; see the module docstring.
+    """A synthesis problem; see the module docstring.
 
     Attributes
     ----------
@@ -118,10 +190,17 @@ class SynthesisProblem:
     penalty : tuple of float
         Objectives of a law whose evaluation failed (an FMU error on that law).
     basic_law : NetworkOperator or callable
-        The GA's first basic solution, or a function returning it (read when first needed, e.g.
-        from a law file, so that building the registry reads no file); :meth:`basic` gives it.
-    budget : Budget
-        Default budget of ``synthesize``.
+        The search's first basic solution, or a function returning it (read when first
+        needed, e.g. from a law file, so that building the registry reads no file).
+    budget, ga, refine : Budget, GAConfig, RefineConfig
+        The recipe of a default run (``synthesize`` overrides single fields: :meth:`tuned`).
+    constraints : tuple of Constraint
+    target : Target or None
+        The single objective of CMA-ES (refinement inside the GA, fixed-structure baselines),
+        e.g. J1 subject to J2 < 1 km.
+    baselines : callable or None
+        ``() -> {name: NetworkOperator}``: fixed law structures whose parameters CMA-ES tunes
+        (``synthesize --method cma-NAME``).
     objective_labels : tuple of str
         Axis labels of the plots (default: the names).
     unary, binary : tuple of int
@@ -137,16 +216,10 @@ class SynthesisProblem:
         A relative path is taken relative to the FMU folder.
     source : str
         Where the problem comes from (a registered system, or a problem file and its hash).
-    target : Target or None
-        The single objective of CMA-ES (parameter refinement inside the GA, fixed-structure
-        baselines), e.g. J1 subject to J2 < 1 km (:class:`synthesis.methods.baselines.Target`).
-    baselines : callable or None
-        ``() -> {name: NetworkOperator}``: fixed law structures whose parameters CMA-ES tunes
-        (``synthesize --method cma-NAME``), the comparison for the network-operator search.
-    runner : Runner or None
-        How a law is flown (:class:`synthesis.fmi.container_loop.Runner`: the closed-loop container FMU
-        instead of the Python master, racing over the initial states); None = every initial
-        state through :class:`~synthesis.fmi.closed_loop.ClosedLoop`.
+    runner : Runner
+        How a law is flown (the closed-loop path, racing over the initial states).
+    options : tuple of ProblemOption
+        Variants the command line can choose.
     """
 
     name: str
@@ -158,6 +231,11 @@ class SynthesisProblem:
     penalty: tuple
     basic_law: NetworkOperator | Callable
     budget: Budget = Budget()
+    ga: GAConfig = GAConfig()
+    refine: RefineConfig = RefineConfig()
+    constraints: tuple = ()
+    target: Target | None = None
+    baselines: Callable | None = None
     objective_labels: tuple = ()
     unary: tuple = PAPER_UNARY
     binary: tuple = PAPER_BINARY
@@ -167,9 +245,8 @@ class SynthesisProblem:
     plant_fmu: str | None = None
     controller_fmu: str | None = None
     source: str = ""
-    target: object = None
-    baselines: Callable | None = None
-    runner: object = None
+    runner: Runner = Runner()
+    options: tuple = ()
 
     def __post_init__(self):
         if not self.initial_states:
@@ -179,7 +256,7 @@ class SynthesisProblem:
                              f"but {len(self.penalty)} penalty values")
 
     def basic(self) -> NetworkOperator:
-        """The GA's first basic solution (``basic_law``, called if it is a function)."""
+        """The first basic solution (``basic_law``, called if it is a function)."""
         law = self.basic_law
         return law if isinstance(law, NetworkOperator) else law()
 
@@ -196,15 +273,80 @@ class SynthesisProblem:
         return (plant if plant.is_absolute() else d / plant,
                 ctrl if ctrl.is_absolute() else d / ctrl)
 
-    def evaluate_flights(self, results: Sequence[ClosedLoopResult]) -> tuple:
-        """``(f, extras)`` of one law from its flights (the objective function, checked)."""
-        f, extras = self.objectives(results)
-        return tuple(float(v) for v in f), dict(extras)
+    def evaluate(self, flights: Sequence[ClosedLoopResult]) -> Outcome:
+        """One law's :class:`Outcome` from its flights; a non-finite objective gives the
+        penalty (never a NaN in a result)."""
+        f, extras = self.objectives(flights)
+        f = tuple(float(v) for v in f)
+        extras = dict(extras)
+        if not all(math.isfinite(v) for v in f):
+            f, extras["failed"] = tuple(self.penalty), "non-finite objectives"
+        cv = 0.0
+        for c in self.constraints:
+            value = c.value(flights)
+            extras[c.name] = value if math.isfinite(value) else None
+            cv += c.violation(value)
+        return Outcome(f, cv, extras)
+
+    def failed(self, extras: Mapping) -> Outcome:
+        """The :class:`Outcome` of a law whose evaluation failed: the penalty, infeasible."""
+        return Outcome(tuple(self.penalty), INVALID_VIOLATION if self.constraints else 0.0,
+                       dict(extras, failed=True))
 
     def with_(self, **changes) -> "SynthesisProblem":
         return replace(self, **changes)
+
+    def tuned(self, **changes) -> "SynthesisProblem":
+        """A copy with settings of the recipe changed by name (:data:`SETTING_GROUPS`:
+        ``population=64``, ``flights=2000``, ``refine_evals=100``; None values are ignored).
+
+        Raises
+        ------
+        SettingError
+            An unknown name or a value outside its documented range (the message names it).
+        """
+        return replace(self, **recipe(self, **changes))
+
+    def with_option(self, name: str, value: str) -> "SynthesisProblem":
+        """The variant of this problem with option ``name`` (ValueError if it has none such)."""
+        for opt in self.options:
+            if opt.name == name:
+                return opt.apply(self, value)
+        known = ", ".join(o.name for o in self.options) or "none"
+        raise ValueError(f"problem {self.name} has no option {name!r} (its options: {known})")
 
 
 def start_values(states: Sequence[Mapping]) -> tuple:
     """Initial states as a tuple of plain dicts of floats (what the problem stores)."""
     return tuple({k: float(v) for k, v in s.items()} for s in states)
+
+
+def _group_of(key: str) -> tuple:
+    """``(attribute, field name)`` of a setting named as on the command line."""
+    for attr, cls, prefix in SETTING_GROUPS:
+        name = key[len(prefix):] if key.startswith(prefix) else None
+        if name is not None and name in cls.__dataclass_fields__:
+            return attr, name
+    raise SettingError(key, "unknown setting")
+
+
+def recipe(base: SynthesisProblem | None = None, **settings) -> dict:
+    """``{"budget": Budget, "ga": GAConfig, "refine": RefineConfig}`` with ``settings`` named as
+    on the command line (``population=128``, ``flights=20000``, ``refine_evals=2000``) applied
+    to ``base``'s (default: the defaults); None values are ignored.
+
+    Raises
+    ------
+    SettingError
+        An unknown name or a value outside its documented range (the message names it).
+    """
+    groups: dict = {}
+    for key, value in settings.items():
+        if value is not None:
+            attr, name = _group_of(key)
+            groups.setdefault(attr, {})[name] = value
+    out = {}
+    for attr, cls, _ in SETTING_GROUPS:
+        current = getattr(base, attr) if base is not None else cls()
+        out[attr] = replace_settings(current, groups.get(attr, {}), f"{attr}.")
+    return out

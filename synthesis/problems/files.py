@@ -1,9 +1,11 @@
 """Synthesis problems from a TOML file, for any FMI 2.0 co-simulation plant FMU.
 
-``descent-fmus synthesize --problem FILE.toml --out DIR`` runs the network-operator synthesis on
-a plant this package knows nothing about: the file names the plant FMU (any tool's), which of its
-outputs feed the law and which of its inputs the law drives, the sampling period, when a flight
-ends, the initial states, the objectives and the basic law.  The format, key by key::
+``descent-fmus synthesize --problem FILE.toml --out DIR`` runs a synthesis on a plant this
+package knows nothing about, with the same recipe as a registered problem: the file names the
+plant FMU (any tool's), which of its outputs feed the law and which of its inputs the law
+drives, the sampling period, when a flight ends, the initial states, the objectives and
+constraints, the basic law, and the recipe (budget, GA, CMA-ES refinement and its target, the
+fixed-structure baselines).  The format, key by key::
 
     [problem]
     name = "hopper"                      # letters, digits, - and _
@@ -23,6 +25,7 @@ ends, the initial states, the objectives and the basic law.  The format, key by 
     step = 0.1                            # communication step = the law's sample period [s]
     stop_time = 20.0                      # [s]
     stop = { output = "h", op = "<=", value = 0.0 }    # optional; op is "<=", ">=" or "!="
+    # path = "container"                  # fly the closed loop as one container FMU
 
     [initial_states]                      # either a list ...
     states = [ { h0 = 10.0, v0 = 0.0 }, { h0 = 12.0, v0 = -1.0 } ]
@@ -35,28 +38,60 @@ ends, the initial states, the objectives and the basic law.  The format, key by 
     [[objectives]]                        # one table per objective (all minimised)
     name = "miss"
     flight = "abs(final(v)) + 10 * abs(final(h))"      # per flight (synthesis.problems.expressions)
-    over_states = "sum"                   # sum | mean | max over the initial states
+    over_states = "sum"                   # sum | mean | max | min over the initial states
     unmet_stop_penalty = 100.0            # added for a flight the stop condition never ended
     penalty = 1e6                         # a law whose evaluation fails gets this
 
-    [basic_law]                           # the GA's first basic solution: a linear law ...
+    [[constraints]]                       # optional: feasibility first, then Pareto rank
+    name = "soft"
+    flight = "abs(final(v))"              # per flight
+    sense = "<="                          # "<=" (default) or ">="
+    bound = 2.0
+    over_states = "max"                   # max (every start) | min | mean | sum
+    # scale = 1.0                         # unit of the violation (default max(|bound|, 1))
+
+    [basic_law]                           # the first basic solution: a linear law ...
     gains = [ [ -1.0, -2.0 ] ]            # one row per output: u_k = sum_i gains[k][i] x_i + bias[k]
     bias = [ 1.0 ]
     size = 16                             # nodes (room for the GA's structure)
     # ... or a law file of a previous synthesis:   file = "law.json"
     # ... or a matrix inline:  psi = [[...]], q = [...], outputs = [...]
 
-    [ga]                                  # optional: the default budget
-    population = 64
+    [budget]                              # optional: when a run ends (synthesize --flights ...)
+    flights = 2000                        # laws flown (0 = no flight budget)
     generations = 40
+    seed = 1
+    # seconds = 600                       # wall-clock budget
+
+    [ga]                                  # optional: the variational GA (synthesize --population ...)
+    population = 64
     crossovers = 16
     lchr = 6
     epoch = 8
-    seed = 1
     q_range = [-16.0, 16.0]               # range of the parameters' Gray code
     q_bits = [4, 12]                      # its integer and fraction bits (default 4 + 12)
+    # basis_rule = "target"  elite_trim = 4  p_mutation = 0.7  alpha = 0.4  ksearch = 4
     # unary = [1, 3, 4, 5, 8, 9, 10, 14, 15]   binary = [1, 2]   (operation numbers)
 
+    [refine]                              # optional: CMA-ES on promising laws' parameters
+    basis = 400                           # evaluations on the basic solution first
+    evals = 200                           # per refined law after every epoch
+    laws = 1                              # laws refined per epoch
+    # sigma = 0.3  popsize = 0
+
+    [target]                              # the single objective of CMA-ES (refinement, baselines)
+    objective = "miss"                    # minimise this objective ...
+    constraint = "fuel"                   # ... subject to this one below the limit (optional)
+    limit = 5.0
+    # weight = 10.0
+
+    [baselines]                           # fixed structures for synthesize --method cma-NAME
+    linear = { kind = "linear" }          # kind: linear | polynomial (degree) | tanh (hidden)
+    cubic = { kind = "polynomial", degree = 3 }
+    # mine = { kind = "file", file = "law.json" }
+    # any kind may give its own inputs' scale = [...] and offset = [...]
+
+For compatibility with older files, ``generations`` and ``seed`` are also read from ``[ga]``.
 Every error names the file, the key and the problem (:class:`ProblemFileError`); nothing is
 written before the file has been checked against the plant FMU's model description.
 """
@@ -65,12 +100,18 @@ from __future__ import annotations
 import hashlib
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from descent_fmus.synthesis.fmi.closed_loop import Stop, Wiring
-from descent_fmus.synthesis.problems.expressions import Expression, ExpressionError, reduce_signal
-from descent_fmus.synthesis.problems.contract import PAPER_BINARY, PAPER_UNARY, Budget, SynthesisProblem
+from descent_fmus.synthesis.problems.contract import AGGREGATES, Constraint, SynthesisProblem
+from descent_fmus.synthesis.problems.expressions import Expression, ExpressionError
+from descent_fmus.synthesis.problems.file_functions import (FileObjective, FileObjectives,
+                                                            FlightExpression)
+from descent_fmus.synthesis.problems.file_reader import (ProblemFileError, Reader, find_fmu,
+                                                         model_description)
+from descent_fmus.synthesis.problems.file_recipe import read_baselines, read_recipe, read_target
+from descent_fmus.synthesis.problems.runner import Runner
 
 try:
     import tomllib
@@ -80,186 +121,61 @@ except ModuleNotFoundError:              # Python 3.10
 __all__ = ["ProblemFileError", "load_problem_file", "FileObjectives"]
 
 _TOP = {"problem", "plant", "controller", "simulation", "initial_states", "objectives",
-        "basic_law", "ga"}
+        "constraints", "basic_law", "budget", "ga", "refine", "target", "baselines"}
 _KEYS = {
     "problem": {"name", "description"},
     "plant": {"fmu", "parameters"},
     "controller": {"fmu", "inputs", "outputs"},
     "controller.inputs": {"output", "scale", "offset"},
     "controller.outputs": {"input", "min", "max"},
-    "simulation": {"step", "stop_time", "stop"},
+    "simulation": {"step", "stop_time", "stop", "path"},
     "simulation.stop": {"output", "op", "value"},
     "initial_states": {"states", "box", "samples", "sampler", "seed"},
     "objectives": {"name", "flight", "over_states", "unmet_stop_penalty", "penalty"},
+    "constraints": {"name", "flight", "sense", "bound", "over_states", "scale"},
     "basic_law": {"gains", "bias", "size", "file", "psi", "q", "outputs"},
-    "ga": {"population", "generations", "crossovers", "lchr", "epoch", "seed", "q_range",
-           "q_bits", "unary", "binary"},
 }
-_OVER = ("sum", "mean", "max")
 
 
-class ProblemFileError(ValueError):
-    """A problem file is malformed; the message names the file, the key and the problem."""
+@dataclass
+class _Plant:
+    """What the file's plant FMU offers (read from its model description)."""
+
+    path: Path
+    md: object
+    vars: dict = field(default_factory=dict)
+
+    @property
+    def outputs(self) -> set:
+        return {n for n, v in self.vars.items() if v.causality == "output"}
+
+    @property
+    def real_outputs(self) -> set:
+        return {n for n in self.outputs if self.vars[n].type == "Real"}
+
+    @property
+    def inputs(self) -> set:
+        return {n for n, v in self.vars.items() if v.causality == "input"}
+
+    @property
+    def settable(self) -> set:
+        return {n for n, v in self.vars.items() if v.causality in ("parameter", "input")}
 
 
-@dataclass(frozen=True)
-class _Objective:
-    name: str
-    expression: Expression
-    over: str
-    unmet_stop_penalty: float
+@dataclass
+class _Controller:
+    """The law's inputs (plant outputs, scales, offsets) and outputs (plant inputs, bounds)."""
 
+    path: Path
+    inputs: list
+    scale: list
+    offset: list
+    outputs: list
+    bounds: list
 
-@dataclass(frozen=True)
-class FileObjectives:
-    """The objective function of a problem file (picklable: sent to the worker processes).
-
-    Per flight, every objective's expression is evaluated on the reductions of the recorded
-    signals (``final`` from the plant's final outputs); the values are aggregated over the
-    initial states (sum, mean or max).
-    """
-
-    objectives: tuple
-    law_outputs: tuple       # (signal name "u1", controller output "u[1]") pairs
-    has_stop: bool
-
-    def __call__(self, results):
-        per_flight = [self._flight(r) for r in results]
-        f = []
-        for j, ob in enumerate(self.objectives):
-            vals = [v[j] for v in per_flight]
-            if ob.over == "sum":
-                f.append(sum(vals))
-            elif ob.over == "mean":
-                f.append(sum(vals) / len(vals))
-            else:
-                f.append(max(vals))
-        return tuple(f), {"stopped": sum(bool(r.stopped) for r in results)}
-
-    def _flight(self, r) -> list:
-        law = dict(self.law_outputs)
-        values = {}
-        for ob in self.objectives:
-            for fn, name in ob.expression.reductions:
-                if (fn, name) in values:
-                    continue
-                if name in law:
-                    x = r.outputs.get("ctrl." + law[name], ())
-                    final = float(x[-1]) if len(x) else math.nan
-                else:
-                    x = r.outputs.get(name, ())
-                    final = float(r.final[name])
-                values[(fn, name)] = reduce_signal(fn, r.time, x, final)
-        special = {"tf": r.t_final, "stopped": 1.0 if r.stopped else 0.0}
-        out = []
-        for ob in self.objectives:
-            v = ob.expression.evaluate(values, special)
-            if self.has_stop and not r.stopped and ob.unmet_stop_penalty:
-                v += ob.unmet_stop_penalty
-            out.append(v)
-        return out
-
-
-class _Reader:
-    """Reads one file, raising ProblemFileError(file: key: problem)."""
-
-    def __init__(self, path: Path):
-        self.path = path
-
-    def error(self, key: str, message: str):
-        return ProblemFileError(f"{self.path}: {key}: {message}")
-
-    def table(self, data, key: str, required: bool = True) -> dict:
-        v = data.get(key.split(".")[-1]) if isinstance(data, dict) else None
-        if v is None:
-            if required:
-                raise self.error(key, "missing")
-            return {}
-        if not isinstance(v, dict):
-            raise self.error(key, f"must be a table, got {type(v).__name__}")
-        return v
-
-    def items(self, d: dict, key: str, allowed: set):
-        """``(key[k], table)`` for every table of the non-empty list ``d[last part of key]``."""
-        v = d.get(key.split(".")[-1])
-        if not isinstance(v, list) or not v:
-            raise self.error(key, "must be a non-empty list of tables")
-        for k, item in enumerate(v):
-            kk = f"{key}[{k + 1}]"
-            if not isinstance(item, dict):
-                raise self.error(kk, f"must be a table with keys {', '.join(sorted(allowed))}")
-            self.keys(item, kk, allowed)
-            yield kk, item
-
-    def keys(self, d: dict, key: str, allowed: set) -> None:
-        for k in d:
-            if k not in allowed:
-                raise self.error(f"{key}.{k}", f"unknown key; allowed: {', '.join(sorted(allowed))}")
-
-    def number(self, d: dict, key: str, name: str, default=None, positive=False,
-               integer=False):
-        if name not in d:
-            if default is None:
-                raise self.error(f"{key}.{name}", "missing")
-            return default
-        v = d[name]
-        if isinstance(v, bool) or not isinstance(v, (int, float)):
-            raise self.error(f"{key}.{name}", f"must be a number, got {v!r}")
-        if integer and not isinstance(v, int):
-            raise self.error(f"{key}.{name}", f"must be an integer, got {v!r}")
-        if not math.isfinite(v):
-            raise self.error(f"{key}.{name}", f"must be finite, got {v!r}")
-        if positive and v <= 0:
-            raise self.error(f"{key}.{name}", f"must be > 0, got {v!r}")
-        return v
-
-    def string(self, d: dict, key: str, name: str, default=None) -> str:
-        if name not in d:
-            if default is None:
-                raise self.error(f"{key}.{name}", "missing")
-            return default
-        v = d[name]
-        if not isinstance(v, str) or not v:
-            raise self.error(f"{key}.{name}", f"must be a non-empty string, got {v!r}")
-        return v
-
-
-def _fmu(reader: _Reader, key: str, name: str, fmu_dir) -> Path:
-    p = Path(name)
-    candidates = [p] if p.is_absolute() else [reader.path.parent / p] + (
-        [Path(fmu_dir) / p] if fmu_dir is not None else [])
-    for c in candidates:
-        if c.is_file():
-            return c.resolve()
-    raise reader.error(key, f"FMU file not found: {name} (looked in "
-                            f"{', '.join(str(c.parent) for c in candidates)}; build it first, e.g. "
-                            f"python build_fmus.py for the package's FMUs)")
-
-
-def _model_description(reader: _Reader, key: str, path: Path):
-    import zipfile
-    from xml.etree import ElementTree as ET
-
-    from fmpy import read_model_description
-    try:
-        with zipfile.ZipFile(path) as z:
-            root = ET.fromstring(z.read("modelDescription.xml"))
-    except (OSError, KeyError, zipfile.BadZipFile, ET.ParseError) as exc:
-        raise reader.error(key, f"{path} is not a readable FMU: {exc}") from None
-    version = root.get("fmiVersion", "?")
-    if version != "2.0":
-        raise reader.error(key, f"{path.name} is an FMI {version} FMU; descent-fmus needs "
-                                f"FMI 2.0")
-    if root.find("CoSimulation") is None:
-        raise reader.error(key, f"{path.name} is not a co-simulation FMU (model exchange "
-                                f"only); export it for co-simulation")
-    try:
-        return read_model_description(str(path))
-    except Exception as exc:  # fmpy's schema validation lists every problem on its own line
-        lines = str(exc).splitlines()
-        more = f" (+{len(lines) - 2} more)" if len(lines) > 2 else ""
-        raise reader.error(key, f"{path.name}: invalid model description: "
-                                f"{' '.join(x.strip() for x in lines[:2])}{more}") from None
+    @property
+    def law_signals(self) -> dict:
+        return {f"u{k + 1}": f"u[{k + 1}]" for k in range(len(self.outputs))}
 
 
 def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
@@ -277,92 +193,123 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
     ProblemFileError
         One line naming the file, the key and what is wrong.
     """
-    from descent_fmus.models.controllers.network_operator import NQ_MAX, NU_MAX, NX_MAX
-    from descent_fmus.synthesis.methods.law import (LawFileError, MatrixError,
-                                                                  NetworkOperator)
     from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
-
     path = Path(path)
-    rd = _Reader(path)
+    rd = Reader(path)
+    raw, data = _read_toml(path)
+    fmu_dir = default_fmu_dir() if fmu_dir is None else Path(fmu_dir)
+    rd.keys(data, "(top level)", _TOP)
+    name, description = _problem_table(rd, data, path)
+    plant, fixed = _plant_table(rd, data, fmu_dir)
+    ctrl = _controller_table(rd, data, plant, fmu_dir)
+    step, stop_time, stop, runner = _simulation_table(rd, data, plant)
+    states = tuple(dict(fixed, **s) for s in _initial_states(rd, data, plant))
+    signals = plant.outputs | set(ctrl.law_signals)
+    objectives, names, penalty = _objectives(rd, data, plant, ctrl, signals, stop)
+    constraints = _constraints(rd, data, plant, ctrl, signals, stop)
+    exprs = [ob.flight.expression for ob in objectives] + \
+        [c.flight.expression for c in constraints]
+    law = _basic_law(rd, data, path, ctrl)
+    recipe, q_bits, ops = read_recipe(rd, data, law)
+    digest = hashlib.sha256(raw).hexdigest()[:16]
+    wiring = _wiring(name, description, path, plant, ctrl, step, stop_time, stop)
+    return SynthesisProblem(
+        name=name, description=description or f"problem file {path.name}",
+        wiring=wiring, initial_states=states, objectives=FileObjectives(tuple(objectives)),
+        objective_names=tuple(names), penalty=tuple(penalty), basic_law=law, **recipe,
+        constraints=tuple(constraints), target=read_target(rd, data, names),
+        baselines=read_baselines(rd, data, path, law), unary=ops["unary"], binary=ops["binary"],
+        q_bits=q_bits, record=_record(exprs, ctrl), plant_fmu=str(plant.path),
+        controller_fmu=str(ctrl.path), runner=runner,
+        source=f"file {path.name} sha256:{digest}")
+
+
+def _read_toml(path: Path) -> tuple:
     try:
         raw = path.read_bytes()
     except OSError as exc:
         raise ProblemFileError(f"{path}: cannot read the problem file: {exc.strerror}") from None
     try:
-        data = tomllib.loads(raw.decode("utf-8"))
+        return raw, tomllib.loads(raw.decode("utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise ProblemFileError(f"{path}: not valid TOML: {exc}") from None
-    fmu_dir = default_fmu_dir() if fmu_dir is None else Path(fmu_dir)
-    rd.keys(data, "(top level)", _TOP)
 
-    # [problem]
+
+def _problem_table(rd: Reader, data, path: Path) -> tuple:
     prob = rd.table(data, "problem")
     rd.keys(prob, "problem", _KEYS["problem"])
     name = rd.string(prob, "problem", "name")
     if not re.fullmatch(r"[A-Za-z][A-Za-z0-9_-]*", name):
         raise rd.error("problem.name", f"use letters, digits, '-' and '_' (starting with a "
                                        f"letter), got {name!r}")
+    description = prob.get("description", "")
+    if not isinstance(description, str):
+        raise rd.error("problem.description", f"must be a string, got {description!r}")
+    return name, description
 
-    # [plant]
-    plant = rd.table(data, "plant")
-    rd.keys(plant, "plant", _KEYS["plant"])
-    plant_path = _fmu(rd, "plant.fmu", rd.string(plant, "plant", "fmu"), fmu_dir)
-    md = _model_description(rd, "plant.fmu", plant_path)
-    pvars = {v.name: v for v in md.modelVariables}
-    outputs = {n for n, v in pvars.items() if v.causality == "output"}
-    real_outputs = {n for n in outputs if pvars[n].type == "Real"}
-    inputs = {n for n, v in pvars.items() if v.causality == "input"}
-    settable = {n for n, v in pvars.items() if v.causality in ("parameter", "input")}
 
-    def settable_values(d: dict, key: str) -> dict:
-        out = {}
-        for k, v in d.items():
-            if k not in settable:
-                raise rd.error(f"{key}.{k}", f"{md.modelName} has no parameter or input "
-                                             f"named {k!r}")
-            out[k] = rd.number(d, key, k)
-        return out
+def _settable_values(rd: Reader, plant: _Plant, d: dict, key: str) -> dict:
+    out = {}
+    for k in d:
+        if k not in plant.settable:
+            raise rd.error(f"{key}.{k}", f"{plant.md.modelName} has no parameter or input "
+                                         f"named {k!r}")
+        out[k] = float(rd.number(d, key, k))
+    return out
 
-    fixed = settable_values(rd.table(plant, "plant.parameters", required=False),
-                            "plant.parameters")
 
-    # [controller]
-    ctrl = rd.table(data, "controller")
-    rd.keys(ctrl, "controller", _KEYS["controller"])
-    ctrl_path = (_fmu(rd, "controller.fmu", ctrl["fmu"], fmu_dir) if "fmu" in ctrl else None)
-    if ctrl_path is None:
-        ctrl_path = fmu_dir / "NetworkOperatorController.fmu"
-        if not ctrl_path.is_file():
-            raise rd.error("controller.fmu", f"the generic controller {ctrl_path} is not "
-                                             f"built: run python build_fmus.py (or --fmus DIR)")
-    ins, scale, offset = [], [], []
-    for key, item in rd.items(ctrl, "controller.inputs", _KEYS["controller.inputs"]):
+def _plant_table(rd: Reader, data, fmu_dir) -> tuple:
+    table = rd.table(data, "plant")
+    rd.keys(table, "plant", _KEYS["plant"])
+    path = find_fmu(rd, "plant.fmu", rd.string(table, "plant", "fmu"), fmu_dir)
+    md = model_description(rd, "plant.fmu", path)
+    plant = _Plant(path, md, {v.name: v for v in md.modelVariables})
+    fixed = _settable_values(rd, plant, rd.table(table, "plant.parameters", required=False),
+                             "plant.parameters")
+    return plant, fixed
+
+
+def _controller_table(rd: Reader, data, plant: _Plant, fmu_dir) -> _Controller:
+    from descent_fmus.models.controllers.network_operator import NU_MAX, NX_MAX
+    table = rd.table(data, "controller")
+    rd.keys(table, "controller", _KEYS["controller"])
+    if "fmu" in table:
+        path = find_fmu(rd, "controller.fmu", table["fmu"], fmu_dir)
+    else:
+        path = Path(fmu_dir) / "NetworkOperatorController.fmu"
+        if not path.is_file():
+            raise rd.error("controller.fmu", f"the generic controller {path} is not built: run "
+                                             f"python build_fmus.py (or --fmus DIR)")
+    ctrl = _Controller(path, [], [], [], [], [])
+    name = plant.md.modelName
+    for key, item in rd.items(table, "controller.inputs", _KEYS["controller.inputs"]):
         o = rd.string(item, key, "output")
-        if o not in outputs:
-            raise rd.error(f"{key}.output", f"{o!r} is not an output of {md.modelName} "
-                                            f"(its outputs: {', '.join(sorted(outputs))})")
-        if o not in real_outputs:
-            raise rd.error(f"{key}.output", f"{o!r} is a {pvars[o].type} output; the law "
+        if o not in plant.outputs:
+            raise rd.error(f"{key}.output", f"{o!r} is not an output of {name} (its outputs: "
+                                            f"{', '.join(sorted(plant.outputs))})")
+        if o not in plant.real_outputs:
+            raise rd.error(f"{key}.output", f"{o!r} is a {plant.vars[o].type} output; the law "
                                             f"reads Real outputs")
-        ins.append(o)
-        scale.append(float(rd.number(item, key, "scale", 1.0)))
-        offset.append(float(rd.number(item, key, "offset", 0.0)))
-    outs, bounds = [], []
-    for key, item in rd.items(ctrl, "controller.outputs", _KEYS["controller.outputs"]):
+        ctrl.inputs.append(o)
+        ctrl.scale.append(float(rd.number(item, key, "scale", 1.0)))
+        ctrl.offset.append(float(rd.number(item, key, "offset", 0.0)))
+    for key, item in rd.items(table, "controller.outputs", _KEYS["controller.outputs"]):
         i = rd.string(item, key, "input")
-        if i not in inputs:
-            raise rd.error(f"{key}.input", f"{i!r} is not an input of {md.modelName} (its "
-                                           f"inputs: {', '.join(sorted(inputs)) or 'none'})")
+        if i not in plant.inputs:
+            raise rd.error(f"{key}.input", f"{i!r} is not an input of {name} (its inputs: "
+                                           f"{', '.join(sorted(plant.inputs)) or 'none'})")
         lo, hi = rd.number(item, key, "min"), rd.number(item, key, "max")
         if lo > hi:
             raise rd.error(key, f"min = {lo} > max = {hi}")
-        outs.append(i)
-        bounds.append((float(lo), float(hi)))
-    if len(ins) > NX_MAX or len(outs) > NU_MAX:
+        ctrl.outputs.append(i)
+        ctrl.bounds.append((float(lo), float(hi)))
+    if len(ctrl.inputs) > NX_MAX or len(ctrl.outputs) > NU_MAX:
         raise rd.error("controller", f"the NetworkOperatorController reads at most {NX_MAX} "
                                      f"inputs and drives at most {NU_MAX} outputs")
+    return ctrl
 
-    # [simulation]
+
+def _simulation_table(rd: Reader, data, plant: _Plant) -> tuple:
     sim = rd.table(data, "simulation")
     rd.keys(sim, "simulation", _KEYS["simulation"])
     step = float(rd.number(sim, "simulation", "step", positive=True))
@@ -374,15 +321,21 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         st = rd.table(sim, "simulation.stop")
         rd.keys(st, "simulation.stop", _KEYS["simulation.stop"])
         so = rd.string(st, "simulation.stop", "output")
-        if so not in outputs:
+        if so not in plant.outputs:
             raise rd.error("simulation.stop.output", f"{so!r} is not an output of "
-                                                     f"{md.modelName}")
+                                                     f"{plant.md.modelName}")
         op = rd.string(st, "simulation.stop", "op")
         if op not in ("<=", ">=", "!="):
             raise rd.error("simulation.stop.op", f"must be '<=', '>=' or '!=', got {op!r}")
         stop = Stop(so, op, float(rd.number(st, "simulation.stop", "value")))
+    path = rd.string(sim, "simulation", "path", "master")
+    if path not in ("master", "container"):
+        raise rd.error("simulation.path", f"must be 'master' (the fmpy master steps both FMUs) "
+                                          f"or 'container' (one container FMU), got {path!r}")
+    return step, stop_time, stop, Runner(container=path == "container")
 
-    # [initial_states]
+
+def _initial_states(rd: Reader, data, plant: _Plant) -> list:
     init = rd.table(data, "initial_states")
     rd.keys(init, "initial_states", _KEYS["initial_states"])
     if ("states" in init) == ("box" in init):
@@ -395,148 +348,161 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         for k, s in enumerate(init["states"]):
             if not isinstance(s, dict):
                 raise rd.error(f"initial_states.states[{k + 1}]", "must be a table")
-            states.append(settable_values(s, f"initial_states.states[{k + 1}]"))
-    else:
-        from descent_fmus.synthesis.problems.dispersion import METHODS, Box
-        box = rd.table(init, "initial_states.box")
-        if not box:
-            raise rd.error("initial_states.box", "the box is empty")
-        ranges = {}
-        for k, v in box.items():
-            key = f"initial_states.box.{k}"
-            if k not in settable:
-                raise rd.error(key, f"{md.modelName} has no parameter or input named {k!r}")
-            if not (isinstance(v, list) and len(v) == 2 and all(
-                    isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-                    for x in v)):
-                raise rd.error(key, f"must be [min, max] (two finite numbers), got {v!r}")
-            if v[0] > v[1]:
-                raise rd.error(key, f"min = {v[0]} > max = {v[1]}")
-            ranges[k] = (float(v[0]), float(v[1]))
-        sampler = rd.string(init, "initial_states", "sampler", "uniform")
-        if sampler not in METHODS:
-            raise rd.error("initial_states.sampler", f"must be one of {', '.join(METHODS)}, "
-                                                     f"got {sampler!r}")
-        samples = int(rd.number(init, "initial_states", "samples", 1 if sampler == "corners"
-                                else None, positive=True, integer=True))
-        seed = int(rd.number(init, "initial_states", "seed", 1, integer=True))
-        states = Box.from_bounds(ranges).sample(samples, seed, sampler)
-    states = tuple(dict(fixed, **s) for s in states)
+            states.append(_settable_values(rd, plant, s, f"initial_states.states[{k + 1}]"))
+        return states
+    return _sampled_states(rd, init, plant)
 
-    # [[objectives]]
-    law_signals = {f"u{k + 1}": f"u[{k + 1}]" for k in range(len(outs))}
-    signals = outputs | set(law_signals)
+
+def _sampled_states(rd: Reader, init: dict, plant: _Plant) -> list:
+    from descent_fmus.synthesis.problems.dispersion import METHODS, Box
+    box = rd.table(init, "initial_states.box")
+    if not box:
+        raise rd.error("initial_states.box", "the box is empty")
+    ranges = {}
+    for k, v in box.items():
+        key = f"initial_states.box.{k}"
+        if k not in plant.settable:
+            raise rd.error(key, f"{plant.md.modelName} has no parameter or input named {k!r}")
+        if not (isinstance(v, list) and len(v) == 2 and all(
+                isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+                for x in v)):
+            raise rd.error(key, f"must be [min, max] (two finite numbers), got {v!r}")
+        if v[0] > v[1]:
+            raise rd.error(key, f"min = {v[0]} > max = {v[1]}")
+        ranges[k] = (float(v[0]), float(v[1]))
+    sampler = rd.string(init, "initial_states", "sampler", "uniform")
+    if sampler not in METHODS:
+        raise rd.error("initial_states.sampler", f"must be one of {', '.join(METHODS)}, "
+                                                 f"got {sampler!r}")
+    samples = int(rd.number(init, "initial_states", "samples", 1 if sampler == "corners"
+                            else None, positive=True, integer=True))
+    seed = int(rd.number(init, "initial_states", "seed", 1, integer=True))
+    return Box.from_bounds(ranges).sample(samples, seed, sampler)
+
+
+def _flight_expression(rd: Reader, item: dict, key: str, plant: _Plant, ctrl: _Controller,
+                       signals, stop) -> FlightExpression:
+    try:
+        expr = Expression(rd.string(item, key, "flight"), signals)
+    except ExpressionError as exc:
+        raise rd.error(f"{key}.flight", str(exc)) from None
+    for fn, sig in expr.reductions:
+        if fn != "final" and sig not in ctrl.law_signals and sig not in plant.real_outputs:
+            raise rd.error(f"{key}.flight", f"{fn}({sig}) needs a Real signal; {sig!r} is "
+                                            f"{plant.vars[sig].type}")
+    unmet = float(rd.number(item, key, "unmet_stop_penalty", 0.0))
+    if unmet and stop is None:
+        raise rd.error(f"{key}.unmet_stop_penalty", "needs [simulation].stop (a flight can "
+                                                    "only miss a stop condition it has)")
+    return FlightExpression(expr, tuple(ctrl.law_signals.items()), stop is not None, unmet)
+
+
+def _aggregate(rd: Reader, item: dict, key: str, default: str) -> str:
+    over = rd.string(item, key, "over_states", default)
+    if over not in AGGREGATES:
+        raise rd.error(f"{key}.over_states", f"must be one of {', '.join(AGGREGATES)}, got "
+                                             f"{over!r}")
+    return over
+
+
+def _objectives(rd: Reader, data, plant, ctrl, signals, stop) -> tuple:
     objectives, names, penalty = [], [], []
     for key, ob in rd.items(data, "objectives", _KEYS["objectives"]):
         oname = rd.string(ob, key, "name")
         if oname in names:
             raise rd.error(f"{key}.name", f"objective {oname!r} appears twice")
-        try:
-            expr = Expression(rd.string(ob, key, "flight"), signals)
-        except ExpressionError as exc:
-            raise rd.error(f"{key}.flight", str(exc)) from None
-        for fn, sig in expr.reductions:
-            if fn != "final" and sig not in law_signals and sig not in real_outputs:
-                raise rd.error(f"{key}.flight", f"{fn}({sig}) needs a Real signal; {sig!r} is "
-                                                f"{pvars[sig].type}")
-        over = rd.string(ob, key, "over_states", "sum")
-        if over not in _OVER:
-            raise rd.error(f"{key}.over_states", f"must be one of {', '.join(_OVER)}, got "
-                                                 f"{over!r}")
-        unmet = float(rd.number(ob, key, "unmet_stop_penalty", 0.0))
-        if unmet and stop is None:
-            raise rd.error(f"{key}.unmet_stop_penalty", "needs [simulation].stop (a flight can "
-                                                        "only miss a stop condition it has)")
-        objectives.append(_Objective(oname, expr, over, unmet))
+        flight = _flight_expression(rd, ob, key, plant, ctrl, signals, stop)
+        objectives.append(FileObjective(oname, flight, _aggregate(rd, ob, key, "sum")))
         names.append(oname)
         penalty.append(float(rd.number(ob, key, "penalty", 1e9)))
-    record = sorted({sig for ob in objectives for fn, sig in ob.expression.reductions
-                     if fn != "final" and sig not in law_signals})
-    if any(sig in law_signals for ob in objectives for _, sig in ob.expression.reductions):
-        record.append("ctrl.u[1]")             # switches recording on (law outputs included)
+    return objectives, names, penalty
 
-    # [basic_law]
+
+def _constraints(rd: Reader, data, plant, ctrl, signals, stop) -> list:
+    if "constraints" not in data:
+        return []
+    out, names = [], set()
+    for key, item in rd.items(data, "constraints", _KEYS["constraints"]):
+        cname = rd.string(item, key, "name")
+        if cname in names:
+            raise rd.error(f"{key}.name", f"constraint {cname!r} appears twice")
+        names.add(cname)
+        flight = _flight_expression(rd, dict(item, unmet_stop_penalty=0.0), key, plant, ctrl,
+                                    signals, stop)
+        sense = rd.string(item, key, "sense", "<=")
+        if sense not in ("<=", ">="):
+            raise rd.error(f"{key}.sense", f"must be '<=' or '>=', got {sense!r}")
+        scale = rd.number(item, key, "scale", 0.0)
+        if "scale" in item and scale <= 0:
+            raise rd.error(f"{key}.scale", f"must be > 0, got {scale!r}")
+        out.append(Constraint(cname, flight, float(rd.number(item, key, "bound")), sense,
+                              _aggregate(rd, item, key, "max"),
+                              float(scale) if "scale" in item else None))
+    return out
+
+
+def _record(exprs, ctrl: _Controller) -> tuple:
+    """The plant outputs the expressions need at every communication point (none when only
+    final values are read: the fastest flights); law outputs switch recording on."""
+    law = ctrl.law_signals
+    record = sorted({sig for e in exprs for fn, sig in e.reductions
+                     if fn != "final" and sig not in law})
+    if any(sig in law for e in exprs for _, sig in e.reductions):
+        record.append("ctrl.u[1]")
+    return tuple(record)
+
+
+def _basic_law(rd: Reader, data, path: Path, ctrl: _Controller):
+    from descent_fmus.models.controllers.network_operator import NQ_MAX
     bl = rd.table(data, "basic_law")
     rd.keys(bl, "basic_law", _KEYS["basic_law"])
     kinds = [k for k in ("gains", "file", "psi") if k in bl]
     if len(kinds) != 1:
         raise rd.error("basic_law", "give exactly one of 'gains' (a linear law), 'file' (a law "
                                     "JSON) or 'psi' (a matrix inline)")
-    common = dict(bounds=bounds, input_names=ins, input_scale=scale, input_offset=offset)
-    try:
-        if "gains" in bl:
-            size = bl.get("size")
-            law = NetworkOperator.linear(bl["gains"], bl.get("bias"), size=size, **common)
-        elif "file" in bl:
-            loaded = NetworkOperator.load(path.parent / bl["file"])
-            law = NetworkOperator(loaded.psi, loaded.nx, loaded.q, loaded.outputs, **common)
-        else:
-            law = NetworkOperator(bl["psi"], len(ins), bl.get("q", []), bl.get("outputs"),
-                                  **common)
-    except (MatrixError, LawFileError, TypeError, ValueError, OSError) as exc:
-        raise rd.error(f"basic_law.{kinds[0]}", str(exc)) from None
-    if law.nx != len(ins) or len(law.outputs) != len(outs):
-        raise rd.error("basic_law", f"the law reads {law.nx} inputs and has {len(law.outputs)} "
-                                    f"outputs; the controller table has {len(ins)} and "
-                                    f"{len(outs)}")
+    law = _law(rd, bl, kinds[0], path, ctrl, f"basic_law.{kinds[0]}")
     if law.size > 32 or len(law.q) > NQ_MAX:
         raise rd.error("basic_law", f"the law has {law.size} nodes and {len(law.q)} "
                                     f"parameters; the controller FMU holds 32 and {NQ_MAX}")
+    return law
 
-    # [ga]
-    ga = rd.table(data, "ga", required=False)
-    rd.keys(ga, "ga", _KEYS["ga"])
+
+def _law(rd: Reader, table: dict, kind: str, path: Path, ctrl: _Controller, key: str,
+         scale=None, offset=None):
+    """A law of the controller's inputs and outputs from ``table`` (gains, file or psi)."""
+    from descent_fmus.synthesis.methods.law import LawFileError, MatrixError, NetworkOperator
+    common = dict(bounds=ctrl.bounds, input_names=ctrl.inputs,
+                  input_scale=ctrl.scale if scale is None else scale,
+                  input_offset=ctrl.offset if offset is None else offset)
     try:
-        budget = Budget().with_(**{k: int(rd.number(ga, "ga", k, integer=True))
-                                   for k in ("population", "generations", "crossovers", "lchr",
-                                             "epoch", "seed") if k in ga})
-    except ValueError as exc:
-        raise rd.error("ga", str(exc)) from None
-    q_lo, q_hi = -16.0, 16.0
-    if "q_range" in ga:
-        qr = ga["q_range"]
-        if not (isinstance(qr, list) and len(qr) == 2 and all(isinstance(x, (int, float))
-                                                               for x in qr) and qr[0] < qr[1]):
-            raise rd.error("ga.q_range", f"must be [min, max] with min < max, got {qr!r}")
-        q_lo, q_hi = float(qr[0]), float(qr[1])
-    q_ib, q_fb = 4, 12
-    if "q_bits" in ga:
-        # up to 48 bits: the Gray code decodes through int64 and float64 (exact to 2^53)
-        qb = ga["q_bits"]
-        if not (isinstance(qb, list) and len(qb) == 2 and all(isinstance(x, int) and x >= 0
-                                                               for x in qb)
-                and 1 <= sum(qb) <= 48):
-            raise rd.error("ga.q_bits", f"must be [integer bits, fraction bits] with 1 to 48 "
-                                        f"bits in all, got {qb!r}")
-        q_ib, q_fb = qb
-    if any(not q_lo <= v < q_hi for v in law.q):
-        raise rd.error("ga.q_range", f"the basic law's parameters {law.q} must lie in "
-                                     f"[{q_lo}, {q_hi})")
-    ops = {}
-    for key, table, default in (("unary", 28, PAPER_UNARY), ("binary", 8, PAPER_BINARY)):
-        v = ga.get(key, list(default))
-        if not (isinstance(v, list) and v and all(isinstance(x, int) and 1 <= x <= table
-                                                  for x in v)):
-            raise rd.error(f"ga.{key}", f"must be a non-empty list of operation numbers "
-                                        f"1..{table}, got {v!r}")
-        ops[key] = tuple(v)
+        if kind == "gains":
+            law = NetworkOperator.linear(table["gains"], table.get("bias"),
+                                         size=table.get("size"), **common)
+        elif kind == "file":
+            loaded = NetworkOperator.load(path.parent / table["file"])
+            law = NetworkOperator(loaded.psi, loaded.nx, loaded.q, loaded.outputs, **common)
+        else:
+            law = NetworkOperator(table["psi"], len(ctrl.inputs), table.get("q", []),
+                                  table.get("outputs"), **common)
+    except (MatrixError, LawFileError, TypeError, ValueError, OSError) as exc:
+        raise rd.error(key, str(exc)) from None
+    if law.nx != len(ctrl.inputs) or len(law.outputs) != len(ctrl.outputs):
+        raise rd.error(key, f"the law reads {law.nx} inputs and has {len(law.outputs)} outputs; "
+                            f"the controller table has {len(ctrl.inputs)} and "
+                            f"{len(ctrl.outputs)}")
+    return law
 
-    digest = hashlib.sha256(raw).hexdigest()[:16]
-    wiring = Wiring(name=f"{re.sub(r'[^A-Za-z0-9_]', '_', name)}ClosedLoop",
-                    plant=md.coSimulation.modelIdentifier, controller="NetworkOperatorController",
-                    to_controller=tuple((o, f"x[{k + 1}]") for k, o in enumerate(ins)),
-                    to_plant=tuple((f"u[{k + 1}]", i) for k, i in enumerate(outs)),
-                    step=step, stop_time=stop_time, stop=stop,
-                    exposed=tuple((o, "plant", o) for o in sorted(real_outputs))
-                    + tuple((f"u{k + 1}", "controller", f"u[{k + 1}]")
-                            for k in range(len(outs))),
-                    description=prob.get("description", f"problem {name} ({path.name})"))
-    return SynthesisProblem(
-        name=name, description=str(prob.get("description", f"problem file {path.name}")),
-        wiring=wiring, initial_states=states,
-        objectives=FileObjectives(tuple(objectives), tuple(law_signals.items()),
-                                  stop is not None),
-        objective_names=tuple(names), penalty=tuple(penalty), basic_law=law, budget=budget,
-        unary=ops["unary"], binary=ops["binary"], q_bits=(q_ib, q_fb, q_lo, q_hi),
-        record=tuple(record), plant_fmu=str(plant_path), controller_fmu=str(ctrl_path),
-        source=f"file {path.name} sha256:{digest}")
+
+def _wiring(name, description, path, plant: _Plant, ctrl: _Controller, step, stop_time,
+            stop) -> Wiring:
+    outs = ctrl.outputs
+    return Wiring(name=f"{re.sub(r'[^A-Za-z0-9_]', '_', name)}ClosedLoop",
+                  plant=plant.md.coSimulation.modelIdentifier,
+                  controller="NetworkOperatorController",
+                  to_controller=tuple((o, f"x[{k + 1}]") for k, o in enumerate(ctrl.inputs)),
+                  to_plant=tuple((f"u[{k + 1}]", i) for k, i in enumerate(outs)),
+                  step=step, stop_time=stop_time, stop=stop,
+                  exposed=tuple((o, "plant", o) for o in sorted(plant.real_outputs))
+                  + tuple((f"u{k + 1}", "controller", f"u[{k + 1}]")
+                          for k in range(len(outs))),
+                  description=description or f"problem {name} ({path.name})")

@@ -23,12 +23,12 @@ from descent_fmus.models.integrators import CRASHED, REACHED
 from descent_fmus.models.lunar_descent import T_PLUS, U1_BOUNDS, U2_BOUNDS, DescentParams
 from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.problems.contract import Budget, Report, SynthesisProblem
+from descent_fmus.synthesis.problems.contract import Report, SynthesisProblem, recipe
 
 __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "INITIAL_SET", "initial_states", "per_state",
            "totals", "objectives", "synthesis_basic_law", "basic_law_start_values", "problems",
            "LunarDescentReport", "U_BOUNDS", "HF", "VF", "CRASH_S", "NOT_IN_BOX_H",
-           "NOT_IN_BOX_V", "LUNAR_DESCENT_BUDGET"]
+           "NOT_IN_BOX_V", "LUNAR_DESCENT_RECIPE"]
 
 #: Communication step [s] (the law's sample-and-hold period): halving it to 0.5 s moves h(tf)
 #: of the basic law by < 2.5 m per state (of a 500 m half box); the RK4 sub-step (1 s) is
@@ -204,7 +204,7 @@ class LunarDescentReport(Report):
 #: Default budget of ``descent-fmus synthesize lunar-descent`` [choice]: a flight costs about
 #: 15 ms through the FMUs and a law 5 flights, so this is ~12 000 evaluations, well under 15 min
 #: on 2 cores (measured run: models/README.md).
-LUNAR_DESCENT_BUDGET = Budget(population=128, generations=120, crossovers=32, lchr=8, epoch=10,
+LUNAR_DESCENT_RECIPE = recipe(population=128, generations=120, crossovers=32, lchr=8, epoch=10,
                               seed=1)
 
 #: Objectives of a law whose evaluation failed: twice the worst per-state penalty.
@@ -218,7 +218,7 @@ def problems() -> tuple:
         SynthesisProblem(
             name="lunar-descent", wiring=WIRING, initial_states=initial_states(),
             objectives=objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
-            basic_law=synthesis_basic_law(), budget=LUNAR_DESCENT_BUDGET,
+            basic_law=synthesis_basic_law(), **LUNAR_DESCENT_RECIPE,
             objective_labels=("J1 = sum |hf - h(tf)| + penalties [m]",
                               "J2 = sum |Vf - V(tf)| + penalties [m/s]"),
             q_bits=(5, 11, -16.0, 16.0), report=LunarDescentReport(),

@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -282,7 +281,7 @@ def replay_program(prog: Program, fmu_dir, p: ReentryParams = ReentryParams(),
     from descent_fmus.synthesis.fmi.closed_loop import load_slave
     from descent_fmus.synthesis.paths import require_fmu
     fmu = load_slave(require_fmu(Path(fmu_dir) / "Reentry.fmu"), "plant")
-    md = fmu._descent_md
+    md = fmu.model
     vr = {v.name: v.valueReference for v in md.modelVariables}
     trace = {name: [] for name in ("t", "u") + tuple(record)}
     try:
@@ -309,9 +308,7 @@ def replay_program(prog: Program, fmu_dir, p: ReentryParams = ReentryParams(),
                         else float(fmu.getReal([v.valueReference])[0]))
                for v in md.modelVariables if v.causality == "output"}
     finally:
-        fmu.terminate()
-        fmu.freeInstance()
-        shutil.rmtree(fmu._descent_unzipdir, ignore_errors=True)
+        fmu.free()
     if record:
         out["trace"] = {k: np.asarray(v) for k, v in trace.items()}
     return out

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from descent_fmus.synthesis.cli.common import (CliError, add_common_options, emit, finite_float,
                                                fmu_folder, positive_float, positive_int)
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 __all__ = ["add_commands"]
 
@@ -91,7 +92,7 @@ def run_fly(args) -> int:
         if args.law:
             law = NetworkOperator.load(args.law)
         else:
-            law = NetworkOperator.paper_law() if args.paper_law else NetworkOperator.basic_law()
+            law = paper_law() if args.paper_law else paper_basic_law()
     except (OSError, LawFileError) as exc:
         raise CliError(f"cannot read law {args.law}: {exc}") from None
     if args.q:

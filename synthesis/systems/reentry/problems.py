@@ -23,12 +23,13 @@ from descent_fmus.models.integrators import REACHED
 from descent_fmus.models.reentry import T_PLUS, ReentryParams
 from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.methods.baselines import Target
-from descent_fmus.synthesis.problems.contract import Budget, Report, SynthesisProblem
+from descent_fmus.synthesis.methods.pareto import Target
+from descent_fmus.synthesis.problems.contract import Report, SynthesisProblem, recipe
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, reentry_law
 
 __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "plant_values", "objectives", "problems",
            "synthesis_basic_law", "NOT_LANDED_PENALTY", "DIVERGED_J1", "ON_TARGET",
-           "ROBUST_CASES", "REENTRY_BUDGET", "TARGET", "baseline_structures",
+           "ROBUST_CASES", "REENTRY_RECIPE", "TARGET", "baseline_structures",
            "paper_basic_law_16", "bound_reference", "INPUT_SCALE", "TIGHT_MISS", "Q_BITS",
            "robust_basic_law", "WINDOW_CENTRE", "WINDOW_HALF", "SCALED_Q_BITS"]
 
@@ -112,8 +113,7 @@ def paper_basic_law_16() -> NetworkOperator:
     for k in range(9, L):
         psi[k - 1, k] = 1
         psi[k, k] = 1
-    return NetworkOperator(psi, nx=2, q=list(PAPER_Q) + [1.0, 1.0], outputs=[L],
-                           input_names=["y1", "y2"])
+    return reentry_law(psi, list(PAPER_Q) + [1.0, 1.0], outputs=[L])
 
 
 #: Input scaling of the baselines' laws [choice]: 10*y1 and 2*y2 are of order 1 along a flight
@@ -127,15 +127,14 @@ WINDOW_CENTRE, WINDOW_HALF = (0.19, -0.25), (0.01, 0.1)
 
 
 def _template(scale, offset=(0.0, 0.0)) -> NetworkOperator:
-    return NetworkOperator(paper_basic_law_16().psi, 2, list(PAPER_Q) + [1.0, 1.0], [16],
-                           input_names=["y1", "y2"], input_scale=list(scale),
-                           input_offset=list(offset))
+    return reentry_law(paper_basic_law_16().psi, list(PAPER_Q) + [1.0, 1.0], [16],
+                       input_scale=list(scale), input_offset=list(offset))
 
 
 def _paper_cubic(template: NetworkOperator, size: int | None = None) -> NetworkOperator:
     """A cubic polynomial in the template's inputs s_i = k_i (y_i - o_i) at the paper's basic
     law q1 y1 + q2 y2 = (q1 o1 + q2 o2) + (q1 / k1) s1 + (q2 / k2) s2 (the rest 0)."""
-    from descent_fmus.synthesis.methods.baselines import polynomial_law
+    from descent_fmus.synthesis.methods.structures import polynomial_law
     (k1, k2), (o1, o2) = template.input_scale, template.input_offset
     q = [PAPER_Q[0] * o1 + PAPER_Q[1] * o2, PAPER_Q[0] / k1, PAPER_Q[1] / k2] + [0.0] * 7
     return polynomial_law(template, 3, q, size=size)
@@ -166,15 +165,20 @@ def baseline_structures() -> dict:
     ``basic`` the paper's basic law (its two gains), ``polynomial`` the basic solution's cubic
     polynomial (10 coefficients) in the inputs (10 y1, 2 y2), ``tanh`` a 2-3-1 tanh network (13 weights, seeded
     random start)."""
-    from descent_fmus.synthesis.methods.baselines import tanh_network_law
-    return {"basic": NetworkOperator.basic_law(),
+    from descent_fmus.synthesis.methods.structures import tanh_network_law
+    return {"basic": paper_basic_law(),
             "polynomial": _paper_cubic(_template(INPUT_SCALE)),
             "tanh": tanh_network_law(_template(INPUT_SCALE), 3, seed=0)}
 
 
+def flight_objectives(flight) -> dict:
+    """:func:`objectives` of one flight, judged against the conditions it was flown from."""
+    return objectives(flight.final, ReentryParams(**flight.start))
+
+
 def nominal_objectives(results):
-    """(J1, J2) and reported values of one flight of the default scenario."""
-    o = objectives(results[0].final, ReentryParams())
+    """(J1, J2) and reported values of one flight (the problem's one initial state)."""
+    o = flight_objectives(results[0])
     return (o["J1"], o["J2"]), {k: o[k] for k in ("aero_load_max", "landed", "t_land",
                                                   "L_final", "diverged")}
 
@@ -185,8 +189,8 @@ ROBUST_CASES = ({}, {"rho0": 1.22 * 1.15}, {"rho0": 1.22 * 0.85}, {"V0": 7550.0}
 
 
 def robust_objectives(results):
-    """Robust variant: J1 = worst max load, J2 = mean miss over ROBUST_CASES."""
-    res = [objectives(r.final, ReentryParams(**c)) for r, c in zip(results, ROBUST_CASES)]
+    """Robust variant: J1 = worst max load, J2 = mean miss over the flights (ROBUST_CASES)."""
+    res = [flight_objectives(r) for r in results]
     j1 = max(r["J1"] for r in res)
     j2 = sum(r["J2"] for r in res) / len(res)
     return (j1, j2), {"miss_max": max(r["J2"] for r in res),
@@ -264,11 +268,11 @@ def open_loop_reference(out_dir) -> float:
 #: epoch of 10 generations, stopped after 20 000 flights -- under 10 min with 2 workers on a
 #: quiet 2-core machine.  ``flights`` is the same budget for the fixed-structure CMA-ES
 #: baselines (--method cma-*).
-REENTRY_BUDGET = Budget(population=128, generations=200, crossovers=32, lchr=8, epoch=10,
+REENTRY_RECIPE = recipe(population=128, generations=200, crossovers=32, lchr=8, epoch=10,
                         seed=2, refine_evals=2000, refine_laws=1, refine_basis=8000,
                         flights=20_000, basis_rule="target")
 #: The robust variant costs 5 flights per law: smaller population, fewer generations.
-ROBUST_BUDGET = Budget(population=128, generations=150, crossovers=32, lchr=8, epoch=12, seed=1)
+ROBUST_RECIPE = recipe(population=128, generations=150, crossovers=32, lchr=8, epoch=12, seed=1)
 #: The single objective of CMA-ES: J1 subject to a miss below 1 km (``reentry``) or below
 #: 100 m (``reentry-100m``).
 TARGET = Target(objective=0, constraint=1, limit=ON_TARGET)
@@ -298,14 +302,14 @@ def problems() -> tuple:
         SynthesisProblem(
             name="reentry", wiring=WIRING, initial_states=(plant_values(ReentryParams()),),
             objectives=nominal_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
-            basic_law=basic, budget=REENTRY_BUDGET, objective_labels=_LABELS,
+            basic_law=basic, **REENTRY_RECIPE, objective_labels=_LABELS,
             q_bits=Q_BITS, report=ReentryReport(), source="system reentry", target=TARGET,
             baselines=baseline_structures,
             description="S1 Earth reentry: min max load (J1) and miss at hf (J2) [m]"),
         SynthesisProblem(
             name="reentry-100m", wiring=WIRING, initial_states=(plant_values(ReentryParams()),),
             objectives=nominal_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
-            basic_law=basic, budget=REENTRY_BUDGET, objective_labels=_LABELS,
+            basic_law=basic, **REENTRY_RECIPE, objective_labels=_LABELS,
             q_bits=Q_BITS, report=ReentryReport(), source="system reentry",
             target=TARGET_TIGHT, baselines=baseline_structures,
             description="S1 Earth reentry, tight miss: as reentry, CMA-ES target J1 subject to "
@@ -314,7 +318,7 @@ def problems() -> tuple:
             name="reentry-robust", wiring=WIRING,
             initial_states=tuple(plant_values(ReentryParams(**c)) for c in ROBUST_CASES),
             objectives=robust_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
-            basic_law=robust_basic_law(), budget=ROBUST_BUDGET, objective_labels=_LABELS,
+            basic_law=robust_basic_law(), **ROBUST_RECIPE, objective_labels=_LABELS,
             q_bits=ROBUST_Q_BITS, source="system reentry",
             description="S1 reentry, robust: worst max load and mean miss over the nominal flight "
                         "and the rho0 +-15 %, V0 +-50 m/s extremes"),

@@ -30,6 +30,7 @@ from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry import sensed
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 __all__ = ["SCENARIOS", "held_out_samples", "robust_study", "stats", "table_lines",
            "plot_robust_study", "NPC", "PROGRAM", "ORACLE", "BASIC", "HELD_OUT_SEED"]
@@ -148,7 +149,7 @@ def robust_study(laws: dict, samples: int, seed: int, fmu_dir, scenarios=("defau
             raise ValueError(f"unknown scenario {s!r}; known: {', '.join(SCENARIOS)}")
     fmu_dir = Path(fmu_dir)
     options = dict(laws)
-    options.setdefault(BASIC, NetworkOperator.basic_law())
+    options.setdefault(BASIC, paper_basic_law())
     out = {"samples": samples, "seed": seed, "scenarios": {},
            "synthesis_set": {"samples": sensed.SYNTHESIS_SAMPLES, "seed": sensed.SYNTHESIS_SEED,
                              "design": "nominal + uniform"},

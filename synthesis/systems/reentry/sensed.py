@@ -28,14 +28,16 @@ import numpy as np
 from descent_fmus.models.reentry import T_PLUS, ReentryParams
 from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.problems.contract import Budget, Report, SynthesisProblem
-from descent_fmus.synthesis.fmi.container_loop import Race, Runner
+from descent_fmus.synthesis.methods.pareto import Target
+from descent_fmus.synthesis.problems.contract import (ProblemOption, Report, SynthesisProblem,
+                                                     recipe)
+from descent_fmus.synthesis.problems.runner import Race, Runner
 from descent_fmus.synthesis.systems.reentry import problems as spec
 
 __all__ = ["SENSED_WIRING", "NPC_WIRING", "SENSED_LOOP_PARAMETERS", "NPC_LOOP_PARAMETERS",
            "STATISTICS", "statistic", "synthesis_set", "RobustObjectives", "proceed",
            "sensed_basic_law", "sensed_baselines", "GUIDED_WIRING", "GUIDED_LOOP_PARAMETERS",
-           "reads_correction", "as_guided", "default_guided_law", "best_guided_row", "problems", "SENSED_BUDGET", "SYNTHESIS_SEED",
+           "reads_correction", "as_guided", "default_guided_law", "best_guided_row", "problems", "SENSED_RECIPE", "SYNTHESIS_SEED",
            "SYNTHESIS_SAMPLES", "MISS_CAP", "reads_estimate", "J1_LIMIT", "best_row"]
 
 _NAV = (("x1", "nav_x1"), ("x2", "nav_x2"), ("x3", "nav_x3"), ("x4", "nav_x4"))
@@ -151,16 +153,11 @@ def synthesis_set(samples: int = SYNTHESIS_SAMPLES, seed: int = SYNTHESIS_SEED,
             dispersion_box(base).sample(samples, seed, nominal_first=True)]
 
 
-def _flight_values(results, params):
-    return [spec.objectives(r.final, p) for r, p in zip(results, params)]
-
-
 def proceed(results) -> bool:
     """Racing: does a law that flew ``results`` fly on?  After the nominal flight: it landed
     within RACE_NOMINAL_MISS; after the first stage: the mean capped miss is within
     RACE_STAGE_MISS."""
-    nominal = ReentryParams()
-    rows = [spec.objectives(r.final, nominal) for r in results]
+    rows = [spec.flight_objectives(r) for r in results]
     if len(rows) == 1:
         return bool(rows[0]["landed"]) and rows[0]["J2"] <= RACE_NOMINAL_MISS
     return float(np.mean([min(r["J2"], MISS_CAP) for r in rows])) <= RACE_STAGE_MISS
@@ -178,8 +175,7 @@ class RobustObjectives:
         statistic(self.statistic)
 
     def __call__(self, results):
-        nominal = ReentryParams()
-        rows = [spec.objectives(r.final, nominal) for r in results]
+        rows = [spec.flight_objectives(r) for r in results]
         miss = np.array([min(r["J2"], MISS_CAP) for r in rows])
         j1 = np.array([min(r["J1"], spec.DIVERGED_J1) for r in rows])
         f1 = float(np.median(j1))
@@ -201,17 +197,16 @@ SENSED_INPUT_SCALE = tuple(spec.INPUT_SCALE) + (5.0,)
 
 
 def _template(nx: int) -> NetworkOperator:
-    names = ["y1", "y2", "y3"][:nx]
+    from descent_fmus.synthesis.systems.reentry.laws import reentry_law
     psi = np.zeros((nx + 2, nx + 2), dtype=int)
-    return NetworkOperator(psi, nx, [0.0], [nx + 2], input_names=names,
-                           input_scale=list(SENSED_INPUT_SCALE[:nx]))
+    return reentry_law(psi, [0.0], [nx + 2], nx=nx, input_scale=list(SENSED_INPUT_SCALE[:nx]))
 
 
 def _start_coefficients(nx: int, degree: int) -> list:
     """The paper's basic law (gains q1/10, q2/2 on the scaled inputs) and, with y3, the
     first-order compensation of the drag factor: u = -y3 (coefficient -1/5 on 5 y3)."""
     from descent_fmus.models.controllers.network_operator import PAPER_Q
-    from descent_fmus.synthesis.methods.baselines import monomials
+    from descent_fmus.synthesis.methods.structures import monomials
     gains = {0: PAPER_Q[0] / SENSED_INPUT_SCALE[0], 1: PAPER_Q[1] / SENSED_INPUT_SCALE[1],
              2: -1.0 / SENSED_INPUT_SCALE[2]}
     q = [0.0]
@@ -225,7 +220,7 @@ def sensed_basic_law(nx: int = 3) -> NetworkOperator:
     nodes (a cubic in three inputs needs 20 parameters, more than the controller FMU holds), the
     paper's basic law plus u = -y3 as its start; identity nodes up to 32 for the variations.
     With ``nx = 2`` (y1, y2 only) the same construction without y3 (degree 3 fits)."""
-    from descent_fmus.synthesis.methods.baselines import polynomial_law
+    from descent_fmus.synthesis.methods.structures import polynomial_law
     degree = 2 if nx == 3 else 3
     return polynomial_law(_template(nx), degree, _start_coefficients(nx, degree), size=32)
 
@@ -233,12 +228,12 @@ def sensed_basic_law(nx: int = 3) -> NetworkOperator:
 def sensed_baselines() -> dict:
     """Fixed structures of the CMA-ES baseline (``--method cma-polynomial``): the basic
     solution's polynomial, only its coefficients tuned."""
-    from descent_fmus.synthesis.methods.baselines import polynomial_law
+    from descent_fmus.synthesis.methods.structures import polynomial_law
     return {"polynomial": polynomial_law(_template(3), 2, _start_coefficients(3, 2))}
 
 
 def sensed_y12_baselines() -> dict:
-    from descent_fmus.synthesis.methods.baselines import polynomial_law
+    from descent_fmus.synthesis.methods.structures import polynomial_law
     return {"polynomial": polynomial_law(_template(2), 3, _start_coefficients(2, 3))}
 
 
@@ -325,7 +320,7 @@ class SensedReport(Report):
 #: Default budget of the robust problems [choice]: about 20 min with 2 workers on a 2-core
 #: machine (benchmarks/reentry_robust.py measures the evaluation rate); ``flights`` is the
 #: evaluation budget of the CMA-ES baseline (--method cma-polynomial), about what the GA spends.
-SENSED_BUDGET = Budget(population=48, generations=40, crossovers=12, lchr=8, epoch=10, seed=1,
+SENSED_RECIPE = recipe(population=48, generations=40, crossovers=12, lchr=8, epoch=10, seed=1,
                        refine_evals=150, refine_laws=1, flights=2600)
 #: Which closed-loop path the robust problems fly [choice] (benchmarks/reentry_robust.py): the
 #: container FMU costs about as much CPU as the Python master for the two-input law and more for
@@ -339,7 +334,7 @@ PLAIN_CONTAINER = True
 #: on-board predictions), so the run stops after 600 law evaluations (about 10 min with 2
 #: workers); CMA-ES tunes the basic solution's parameters first (120 evaluations; its shape is
 #: already a good nominal law), then the GA with 80 evaluations of refinement per epoch.
-GUIDED_BUDGET = Budget(population=32, generations=60, crossovers=8, lchr=8, epoch=10, seed=1,
+GUIDED_RECIPE = recipe(population=32, generations=60, crossovers=8, lchr=8, epoch=10, seed=1,
                        refine_evals=80, refine_laws=1, refine_basis=120, flights=600,
                        basis_rule="target")
 
@@ -369,10 +364,23 @@ class GuidedReport(Report):
         return [f"  guided_law: {summary.get('guided_law')}"]
 
 
+def with_statistic(problem, name: str):
+    """``problem`` judged with the set statistic ``name`` of the miss (ValueError if unknown)."""
+    from dataclasses import replace
+    objectives = replace(problem.objectives, statistic=name)
+    labels = problem.labels[:1] + (f"J2 = {name} miss over the set [m]",) + problem.labels[2:]
+    return problem.with_(objectives=objectives, objective_labels=labels,
+                         source=f"{problem.source}, statistic {name}")
+
+
+#: ``synthesize --option statistic=NAME`` (or ``--statistic NAME``) of the robust problems.
+STATISTIC_OPTION = ProblemOption("statistic", "statistic of the miss over the sample set: "
+                                 + ", ".join(STATISTICS), with_statistic)
+
+
 def problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
              seed: int = SYNTHESIS_SEED) -> tuple:
     """The robust problems over the synthesis set (see the module docstring)."""
-    from descent_fmus.synthesis.methods.baselines import Target
     params = synthesis_set(samples, seed)
     states = tuple(spec.plant_values(p) for p in params)
     objectives = RobustObjectives(statistic_name, samples)
@@ -380,11 +388,11 @@ def problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
     target = Target(objective=1, constraint=0, limit=J1_LIMIT)
     labels = ("J1 = median max load over the set", f"J2 = {statistic_name} miss over the set [m]")
     common = dict(initial_states=states, objectives=objectives, objective_names=("J1", "J2"),
-                  penalty=(spec.DIVERGED_J1, 4 * RACE_OFFSET), budget=SENSED_BUDGET,
+                  penalty=(spec.DIVERGED_J1, 4 * RACE_OFFSET), **SENSED_RECIPE,
                   objective_labels=labels, q_bits=spec.SCALED_Q_BITS, report=SensedReport(),
                   source=f"system reentry (set: {samples} samples, seed {seed}, "
                          f"{statistic_name})",
-                  target=target)
+                  target=target, options=(STATISTIC_OPTION,))
     return (
         SynthesisProblem(
             name="reentry-sensed", wiring=SENSED_WIRING, basic_law=sensed_basic_law(3),
@@ -402,7 +410,7 @@ def problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
             runner=Runner(container=SENSED_CONTAINER, race=race),
             **dict(common, objectives=RobustObjectives("median", samples),
                    objective_labels=(labels[0], "J2 = median miss over the set [m]"),
-                   budget=GUIDED_BUDGET, report=GuidedReport(),
+                   **GUIDED_RECIPE, report=GuidedReport(),
                    target=Target(objective=0, constraint=1, limit=spec.ON_TARGET),
                    source=f"system reentry (set: {samples} samples, seed {seed}, median)"),
             description="S1 reentry, guided: a law u = phi(y1, y2, y3, c) plus the on-board "
