@@ -32,15 +32,15 @@ from pathlib import Path
 
 from descent_fmus.synthesis.run.evaluation import Evaluator, chunk_size
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.run.loop import make_ga
+from descent_fmus.synthesis.methods.registry import make_method
 
 PROBLEM = get_problem("reentry")
 
 
 def laws(n: int, seed: int):
-    return make_ga(PROBLEM, Budget(population=n, seed=seed)).ask()
+    return [c.law for c in make_method("network-operator",
+                                       PROBLEM.tuned(population=n, seed=seed)).ask()]
 
 
 def _noop(problem, chunk):          # a task with the evaluator's arguments and no work

@@ -17,16 +17,16 @@ from pathlib import Path
 
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.run.loop import make_ga
+from descent_fmus.synthesis.methods.registry import make_method
 
 PROBLEM = get_problem("reentry")
 
 
 def laws(n: int, seed: int = 0):
-    ga = make_ga(PROBLEM, Budget(population=n, seed=seed))
-    return ga.ask()          # the GA's initial population: basis + random variations and q
+    # the GA's initial population: basis + random variations and q
+    return [c.law for c in make_method("network-operator",
+                                       PROBLEM.tuned(population=n, seed=seed)).ask()]
 
 
 def rate(batch, fmus, **kw) -> float:

@@ -21,11 +21,10 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.synthesis.fmi.law_files import export_law_files
-from descent_fmus.synthesis.methods.ga import StructureCodec
+from descent_fmus.synthesis.methods.encoding import StructureCodec
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.run.loop import replace_law
 
 
 def ga_laws(n: int, seed: int = 0) -> list:
@@ -39,7 +38,7 @@ def ga_laws(n: int, seed: int = 0) -> list:
         psi = basic.psi
         for _ in range(int(rng.integers(1, 4))):
             psi = codec.apply(psi, [codec.random(rng) for _ in range(8)])
-        laws.append(replace_law(basic, psi, list(rng.uniform(0.0, 16.0, len(basic.q)))))
+        laws.append(basic.with_structure(psi, list(rng.uniform(0.0, 16.0, len(basic.q)))))
     return laws
 
 

@@ -26,7 +26,7 @@ def basic_gains() -> dict:
 
 
 def main(argv=None):
-    from descent_fmus.synthesis.methods.baselines import Target
+    from descent_fmus.synthesis.methods.pareto import Target
     from descent_fmus.synthesis.paths import fmu_dir
     from descent_fmus.synthesis.registry import get_problem
     from descent_fmus.synthesis.run.loop import run_synthesis
@@ -42,8 +42,8 @@ def main(argv=None):
     ap.add_argument("--fmus", type=Path, default=None)
     args = ap.parse_args(argv)
     problem = get_problem("lunar-descent").with_(target=Target(0), baselines=basic_gains)
-    budget = problem.budget.with_(seed=args.seed, flights=args.flights)
-    s = run_synthesis(problem, args.out, args.fmus or fmu_dir(), budget, workers=args.workers,
+    problem = problem.tuned(seed=args.seed, flights=args.flights)
+    s = run_synthesis(problem, args.out, args.fmus or fmu_dir(), workers=args.workers,
                       resume=(args.out / "checkpoint.json").exists(), progress=True,
                       export=False, reference=False, method="cma-basic")
     best = min(s["pareto"], key=lambda r: r["J1"])

@@ -33,8 +33,9 @@ from pathlib import Path
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.fmi.container_loop import ContainerLoop, Runner
-from descent_fmus.synthesis.run.loop import make_ga
+from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
+from descent_fmus.synthesis.problems.runner import Runner
+from descent_fmus.synthesis.methods.registry import make_method
 from descent_fmus.synthesis.systems.reentry import sensed
 
 
@@ -72,12 +73,12 @@ def container_vs_master(problem, fmus: Path, repeat: int) -> dict:
 
 
 def evaluation_rate(problem, fmus: Path, workers: int) -> dict:
-    laws = make_ga(problem, problem.budget).ask()
+    laws = [c.law for c in make_method("network-operator", problem).ask()]
     with Evaluator(problem, fmus, workers=workers) as ev:
         ev.evaluate(laws[:2 * workers])               # start-up (pool, FMU loading) excluded
         todo = laws[2 * workers:]
         t0 = time.perf_counter()
-        _, extras = ev.evaluate(todo)
+        extras = ev.evaluate(todo).extras
         dt = time.perf_counter() - t0
     flights = sum(e.get("flights", len(problem.initial_states)) for e in extras)
     return {"laws": len(todo), "seconds": dt, "laws_per_s": len(todo) / dt,
@@ -86,10 +87,9 @@ def evaluation_rate(problem, fmus: Path, workers: int) -> dict:
 
 
 def budget_laws(problem) -> int:
-    b = problem.budget
-    epochs = b.generations // b.epoch
-    n = b.population + b.refine_basis + b.generations * 4 * b.crossovers + \
-        epochs * b.refine_laws * b.refine_evals
+    b, ga, r = problem.budget, problem.ga, problem.refine
+    epochs = b.generations // ga.epoch
+    n = ga.population + r.basis + b.generations * 4 * ga.crossovers + epochs * r.laws * r.evals
     return min(n, b.flights) if b.flights else n
 
 

@@ -70,10 +70,9 @@ def main(argv=None):
             if not args.no_run and s is not None and s.get("flights", 0) < flights:
                 s = None                           # a shorter run: resumed to the mark
             if s is None:
-                budget = problem.budget.with_(seed=seed, flights=flights,
-                                              generations=10 ** 6)
+                run = problem.tuned(seed=seed, flights=flights, generations=10 ** 6)
                 t0 = time.perf_counter()
-                s = run_synthesis(problem, d, fmus, budget, workers=args.workers,
+                s = run_synthesis(run, d, fmus, workers=args.workers,
                                   resume=(d / "checkpoint.json").exists(), progress=True,
                                   export=False, reference=False, method=method)
                 print(f"{method} seed {seed}: {s['flights']} flights in "

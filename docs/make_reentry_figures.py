@@ -21,10 +21,11 @@ from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.run.loop import plot_front
+from descent_fmus.synthesis.run.report import plot_front
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry.bound import Program, replay_program
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 DOCS = ROOT / "docs" / "figures"
 
@@ -60,7 +61,7 @@ def main(argv=None):
     flights = {}
     with load_loop(args.fmus, record=("h", "L", "load")) as loop:
         for name, lw in (("synthesised law", law), ("basic law (paper q)",
-                                                     NetworkOperator.basic_law())):
+                                                     paper_basic_law())):
             f = fly(lw, loop=loop, record=True)
             flights[name] = (f.result, f.objectives)
     out = replay_program(prog, args.fmus, record=("h", "L", "load"))

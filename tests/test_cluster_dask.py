@@ -24,15 +24,16 @@ import pytest
 
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.run.loop import make_ga
-from descent_fmus.synthesis.problems.contract import Budget
+from descent_fmus.synthesis.methods.registry import make_method
 
 ROOT = Path(__file__).resolve().parent.parent
 REENTRY = get_problem("reentry")
-# the reentry problem as a problem file (the variational GA alone), a small budget
+# the reentry problem as a problem file, a small budget (the variational GA alone)
 PROBLEM_FILE = ROOT / "synthesis/systems/reentry/reentry.toml"
 SMALL = ["--population", "16", "--generations", "6", "--crossovers", "6", "--lchr", "4",
-         "--epoch", "3", "--seed", "5", "--quiet", "--no-export", "--no-reference", "--json"]
+         "--epoch", "3", "--seed", "5", "--refine-basis", "0", "--refine-evals", "0",
+         "--flights", "0", "--basis-rule", "compromise", "--quiet", "--no-export",
+         "--no-reference", "--json"]
 FMUS = ("Reentry.fmu", "NetworkOperatorController.fmu")
 
 
@@ -158,18 +159,20 @@ def test_synthesis_needs_no_shared_folder(cluster, client_fmus, fmu_dir, tmp_pat
 
 def test_worker_loss_mid_batch_and_a_joining_worker(cluster, client_fmus, fmu_dir):
     from distributed import get_task_stream
-    laws = make_ga(REENTRY, Budget(population=64, seed=3)).ask()
-    more = make_ga(REENTRY, Budget(population=64, seed=4)).ask()
+    laws = [c.law for c in make_method("network-operator",
+                                       REENTRY.tuned(population=64, seed=3)).ask()]
+    more = [c.law for c in make_method("network-operator",
+                                       REENTRY.tuned(population=64, seed=4)).ask()]
     with Evaluator(REENTRY, fmu_dir) as local:
-        F_ref, _ = local.evaluate(laws)
-        F_more_ref, _ = local.evaluate(more)
+        F_ref = local.evaluate(laws).F
+        F_more_ref = local.evaluate(more).F
     with Evaluator(REENTRY, client_fmus, scheduler=cluster.address) as ev:
         client_fmus.rename(client_fmus.with_name("gone"))
         ev.evaluate(laws[:4])                         # both workers have loaded the FMUs
         killed = []
         timer = threading.Timer(0.4, lambda: (cluster.kill("w1"), killed.append(time.time())))
         timer.start()
-        F = ev.evaluate(laws)[0]
+        F = ev.evaluate(laws).F
         done = time.time()
         timer.join()
         assert killed and killed[0] < done, "the worker died after the batch"
@@ -178,7 +181,7 @@ def test_worker_loss_mid_batch_and_a_joining_worker(cluster, client_fmus, fmu_di
         cluster.add_worker("w2")                      # joins mid-run, gets the FMUs itself
         addresses = cluster.wait_for(["w0", "w2"])
         with get_task_stream(client=ev.client) as ts:
-            F_more = ev.evaluate(more)[0]
+            F_more = ev.evaluate(more).F
         ran_on = {t["worker"] for t in ts.data}
         assert addresses["w2"] in ran_on
         assert ev.failures == 0

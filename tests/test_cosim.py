@@ -13,6 +13,7 @@ from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUNotFoundError
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +23,7 @@ def loop(fmu_dir):
     lp.close()
 
 
-@pytest.mark.parametrize("law", [NetworkOperator.basic_law(), NetworkOperator.paper_law()],
+@pytest.mark.parametrize("law", [paper_basic_law(), paper_law()],
                          ids=["basic", "paper"])
 def test_halving_the_communication_step_changes_j1_by_less_than_half_a_percent(loop, law):
     # the chosen communication step (reentry problems.STEP) is converged: halving it moves J1
@@ -36,7 +37,7 @@ def test_halving_the_communication_step_changes_j1_by_less_than_half_a_percent(l
 def test_closed_loop_equals_in_process_loop(loop):
     # the same law flown in-process (models.reentry.simulate, same integrator, same ZOH
     # master) must give the same numbers as the FMU co-simulation, to rounding
-    law = NetworkOperator.basic_law()
+    law = paper_basic_law()
     p = ReentryParams()
     from descent_fmus.models.reentry import deviations
     fi = simulate(p, lambda t, x: law(deviations(x, p))[0], step=spec.STEP)
@@ -46,15 +47,15 @@ def test_closed_loop_equals_in_process_loop(loop):
 
 
 def test_reset_between_runs_gives_identical_results(loop):
-    law = NetworkOperator.paper_law()
+    law = paper_law()
     a = fly(law, loop=loop).objectives
-    fly(NetworkOperator.basic_law(q=(9.0, 0.1)), loop=loop)
+    fly(paper_basic_law(q=(9.0, 0.1)), loop=loop)
     b = fly(law, loop=loop).objectives
     assert a == b
 
 
 def test_recorded_trajectory(loop):
-    f = fly(NetworkOperator.basic_law(), loop=loop, record=True)
+    f = fly(paper_basic_law(), loop=loop, record=True)
     r = f.result
     assert r.stopped and r.time[-1] == pytest.approx(r.steps * spec.STEP)
     assert r["h"][0] == pytest.approx(100_000.0) and r["h"][-1] == pytest.approx(10_000.0)
@@ -67,7 +68,7 @@ def test_container_fmu_reproduces_the_python_master(fmu_dir, loop):
     res = simulate_fmu(str(fmu_dir / "ReentryClosedLoop.fmu"), output=["L", "load_max", "status",
                                                                         "t_end", "u"])
     last = res[-1]
-    f = fly(NetworkOperator.basic_law(), loop=loop).objectives
+    f = fly(paper_basic_law(), loop=loop).objectives
     assert last["status"] == 1                         # REACHED: h = hf
     assert last["t_end"] == pytest.approx(f["t_land"], rel=1e-12)
     assert last["L"] == pytest.approx(f["L_final"], rel=1e-12)
@@ -77,7 +78,7 @@ def test_container_fmu_reproduces_the_python_master(fmu_dir, loop):
 def test_container_parameters(fmu_dir, loop):
     res = simulate_fmu(str(fmu_dir / "ReentryClosedLoop.fmu"), output=["L", "load_max"],
                        start_values={"V0": 7550.0, "q[1]": 3.0})
-    f = fly(NetworkOperator.basic_law(q=(3.0, 1.953125)),
+    f = fly(paper_basic_law(q=(3.0, 1.953125)),
             params=ReentryParams(V0=7550.0), loop=loop).objectives
     assert res[-1]["L"] == pytest.approx(f["L_final"], rel=1e-12)
 
@@ -122,7 +123,7 @@ def test_invalid_parameter_is_reported_with_its_name(fmu_dir, plant):
     log: list = []
     fmu = load_slave(fmu_dir / f"{plant}.fmu", "plant", log)
     try:
-        vr = next(v.valueReference for v in fmu._descent_md.modelVariables if v.name == "dt")
+        vr = next(v.valueReference for v in fmu.model.modelVariables if v.name == "dt")
         fmu.setupExperiment(startTime=0.0)
         fmu.enterInitializationMode()
         fmu.setReal([vr], [-1.0])
@@ -177,7 +178,7 @@ def test_fine_output_keeps_the_controller_period(fmu_dir, loop, tmp_path):
     changes = t[1:][u[1:] != u[:-1]]
     assert len(changes) > 50 and all(abs(c - round(c)) < 1e-9 for c in changes)
     # the same scheme in our master (plant stepped at 0.1 s, controller sample_period 1 s)
-    law = NetworkOperator.basic_law()
+    law = paper_basic_law()
     r = loop.run(controller_values=dict(law.start_values(), sample_period=spec.STEP),
                  step=0.1, record=True)
     assert res[-1]["L"] == pytest.approx(r.final["L"], rel=1e-12)
@@ -193,7 +194,7 @@ def test_fine_output_keeps_the_controller_period(fmu_dir, loop, tmp_path):
 
 def test_sample_period_equal_to_the_step_changes_nothing(loop):
     # a controller sampled at the communication step acts at every step: bit-identical flights
-    law = NetworkOperator.paper_law()
+    law = paper_law()
     a = loop.run(controller_values=law.start_values())
     b = loop.run(controller_values=dict(law.start_values(), sample_period=spec.STEP))
     c = loop.run(controller_values=dict(law.start_values(), sample_period=spec.STEP),

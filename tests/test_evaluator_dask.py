@@ -19,6 +19,7 @@ import pytest
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -72,18 +73,18 @@ def cluster(tmp_path):
 def test_dask_cluster_equals_local(cluster, fmu_dir):
     addr, procs = cluster
     rng = np.random.default_rng(8)
-    laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(12)]
+    laws = [paper_basic_law(q=rng.uniform(0, 8, 2)) for _ in range(12)]
     with Evaluator(get_problem("reentry"), fmu_dir) as local:
-        F_local, _ = local.evaluate(laws)
+        F_local = local.evaluate(laws).F
     with Evaluator(get_problem("reentry"), fmu_dir, scheduler=addr) as remote:
-        F_dask, _ = remote.evaluate(laws)
+        F_dask = remote.evaluate(laws).F
         assert remote.failures == 0
         # one worker dies: the scheduler hands its share to the other; nothing is lost
         procs[1].kill()
         procs[1].wait()
-        more = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
-        F_more, _ = remote.evaluate(more)
+        more = [paper_basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
+        F_more = remote.evaluate(more).F
         assert remote.failures == 0
     assert np.array_equal(F_local, F_dask)
     with Evaluator(get_problem("reentry"), fmu_dir) as local:
-        assert np.array_equal(local.evaluate(more)[0], F_more)
+        assert np.array_equal(local.evaluate(more).F, F_more)

@@ -147,7 +147,7 @@ def test_synthesize_exports_laws_compactly(fmu_dir, tmp_path, capsys):
         assert doc["readable"]["text"] == r["readable"] and doc["problem"] == "reentry"
         with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu",
                         d / f"ReentryLaw{r['k']}.fmu") as loop:
-            f, _ = problem.evaluate_flights([loop.run(s) for s in problem.initial_states])
+            f = problem.evaluate([loop.run(s) for s in problem.initial_states]).f
         assert f == pytest.approx((float(r["J1"]), float(r["J2"])), rel=1e-9)
     assert not list(out.rglob("*ClosedLoop.fmu"))
 

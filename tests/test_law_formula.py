@@ -22,6 +22,7 @@ from descent_fmus.synthesis.methods.law_formula import readable, sympy_functions
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.fmi.native.build import find_compiler
 from descent_fmus.synthesis.fmi.native.ccode import OperationError, law_c, operations_c, render
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 from test_native_law import DESCENT_LAW, REENTRY_LAW, every_operation_law
 
@@ -101,11 +102,11 @@ def test_the_language_refuses_what_it_does_not_define():
 
 
 def test_c_of_a_law_computes_only_what_reaches_an_output():
-    law = NetworkOperator.paper_law()
+    law = paper_law()
     h, c = law_c(law, prefix="paper")
     assert "void paper_eval(" in h and "void paper(const double *x, double *u);" in h
     assert c.count("no_finite(chi") == int(np.count_nonzero(np.triu(law.psi, 1)))
-    basic = NetworkOperator.basic_law(size=16)       # nodes 8..16 are unused
+    basic = paper_basic_law(size=16)       # nodes 8..16 are unused
     _, c = law_c(basic)
     assert "z8 " not in c and "z7 = no_finite(chi1" in c
 
@@ -113,7 +114,7 @@ def test_c_of_a_law_computes_only_what_reaches_an_output():
 LAWS = [("reentry", NetworkOperator.load(REENTRY_LAW)),
         ("reentry-five-term", NetworkOperator.load(FIVE_TERM_LAW)),
         ("lunar-descent", NetworkOperator.load(DESCENT_LAW)),
-        ("paper", NetworkOperator.paper_law()), ("basic", NetworkOperator.basic_law())]
+        ("paper", paper_law()), ("basic", paper_basic_law())]
 
 
 def _every_op_laws(n):

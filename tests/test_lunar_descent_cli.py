@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.systems.lunar_descent.problems import LUNAR_DESCENT_BUDGET
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
+from descent_fmus.synthesis.systems.lunar_descent.problems import LUNAR_DESCENT_RECIPE
 
 ROOT = Path(__file__).resolve().parent.parent
 REFERENCE_LAW = ROOT / "tests" / "reference" / "lunar_descent_law.json"
@@ -48,7 +49,7 @@ def test_report_plot_only_when_asked(fmu_dir, tmp_path):
 
 
 def test_report_user_errors_are_one_line(fmu_dir, tmp_path):
-    NetworkOperator.basic_law().save(tmp_path / "one_output.json")
+    paper_basic_law().save(tmp_path / "one_output.json")
     for args, words in [(("--law", str(tmp_path / "one_output.json"), "--samples", "0"),
                          "4 inputs and drives 2 outputs"),
                         (("--law", str(tmp_path / "missing.json")), "cannot read law"),
@@ -67,9 +68,10 @@ def test_synthesize_cli_takes_the_problem_budget(fmu_dir, tmp_path):
              "--workers", "1", "--no-export", "--json", "--fmus", str(fmu_dir), "--out", str(out))
     assert r.returncode == 0, r.stderr
     run = json.loads((out / "run.json").read_text())
-    assert run["ga"]["population"] == 6 and run["seed"] == LUNAR_DESCENT_BUDGET.seed
+    ga = LUNAR_DESCENT_RECIPE["ga"]
+    assert run["ga"]["population"] == 6 and run["seed"] == LUNAR_DESCENT_RECIPE["budget"].seed
     assert {k: run["ga"][k] for k in ("crossovers", "lchr", "epoch")} == \
-        {k: getattr(LUNAR_DESCENT_BUDGET, k) for k in ("crossovers", "lchr", "epoch")}
+        {k: getattr(ga, k) for k in ("crossovers", "lchr", "epoch")}
     assert json.loads(r.stdout)["laws_all_in_box"] >= 1     # the basic law reaches the box
 
 

@@ -15,7 +15,6 @@ from descent_fmus.models.lunar_descent import DescentParams, simulate
 from descent_fmus.synthesis.fmi.closed_loop import FMUError
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.run.loop import run_synthesis
 from descent_fmus.synthesis.systems.lunar_descent.problems import (INITIAL_SET, initial_states,
@@ -46,7 +45,8 @@ def test_evaluator_runs_the_registered_problem_through_the_fmus(fmu_dir):
     basic = prob.basic()
     laws = [basic, basic.with_q([3.4] + basic.q[1:])]
     with Evaluator(prob, fmu_dir) as ev:        # built from FMU paths alone
-        F, extras = ev.evaluate(laws + laws)
+        res = ev.evaluate(laws + laws)
+        F, extras = res.F, res.extras
         assert ev.simulated == 2
     for law, f, ex in zip(laws, F, extras):
         rows = [per_state(_in_process_final(fly_in_process(law, th, h0)))
@@ -96,9 +96,9 @@ def test_closed_loop_fmu_flies_the_basic_law(fmu_dir, loop):
 def test_exported_law_reproduces_its_pareto_row(fmu_dir, tmp_path):
     # oracle: the Pareto row computed by the evaluator (Python master) vs fmpy simulate of the
     # exported closed-loop FMU
-    budget = Budget(population=6, crossovers=2, lchr=2, epoch=2, generations=1, seed=3)
-    s = run_synthesis(get_problem("lunar-descent"), tmp_path / "run", fmu_dir, budget,
-                      progress=False)
+    problem = get_problem("lunar-descent").tuned(population=6, crossovers=2, lchr=2, epoch=2,
+                                                 generations=1, seed=3)
+    s = run_synthesis(problem, tmp_path / "run", fmu_dir, progress=False)
     row = s["pareto"][0]
     rows = []
     for th, h0 in INITIAL_SET:

@@ -31,7 +31,7 @@ class Slave:
     def __init__(self, path, values=None):
         self.log = []
         self.fmu = load_slave(path, "test", self.log)
-        md = self.fmu._descent_md
+        md = self.fmu.model
         self.vars = {v.name: v for v in md.modelVariables}
         self.set(values or {})
         self.fmu.setupExperiment(startTime=0.0)

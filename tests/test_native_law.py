@@ -32,6 +32,7 @@ from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.fmi.native.build import find_compiler
 from descent_fmus.synthesis.fmi.native.law_fmu import build_law_fmu
 from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 REF = Path(__file__).parent / "reference"
 REENTRY_LAW = REF / "reentry_best_law.json"
@@ -77,7 +78,7 @@ def inputs(rng, nx: int, n: int) -> list:
 
 def start(fmu, values: dict) -> dict:
     """Reset, set start values (those the FMU has), initialise; the value references."""
-    vr = {v.name: v.valueReference for v in fmu._descent_md.modelVariables}
+    vr = {v.name: v.valueReference for v in fmu.model.modelVariables}
     fmu.reset()
     ints = {k: v for k, v in values.items() if isinstance(v, int) and k in vr}
     reals = {k: float(v) for k, v in values.items() if not isinstance(v, int) and k in vr}
@@ -113,7 +114,7 @@ def laws():
     rng = np.random.default_rng(13)
     return [("reentry", NetworkOperator.load(REENTRY_LAW)),
             ("lunar-descent", NetworkOperator.load(DESCENT_LAW)),
-            ("paper", NetworkOperator.paper_law())] + \
+            ("paper", paper_law())] + \
         [(f"every-op-{k}", every_operation_law(rng)) for k in range(3)]
 
 
@@ -142,7 +143,7 @@ def test_native_equals_pythonfmu_controller(name, law, generic, tmp_path):
 def test_parameters_are_tunable_and_checked(tmp_path):
     # q is tunable (set between steps: the next output uses it); an invalid start value is
     # an fmi2Error with the parameter named (the same rules as the pythonfmu controller)
-    law = NetworkOperator.basic_law()
+    law = paper_basic_law()
     log = []
     fmu = load_slave(build_law_fmu(law, tmp_path / "Basic.fmu", "Basic"), "basic", log)
     try:
@@ -207,13 +208,13 @@ def test_closed_loop_reproduces_the_pareto_row(reentry_export, fmu_dir):
     law, files = reentry_export
     problem = get_problem("reentry")
     with Evaluator(problem, fmu_dir) as ev:
-        (j1, j2), = ev.evaluate([law])[0]
+        (j1, j2), = ev.evaluate([law]).F
     res = simulate_fmu(files["closed_loop_fmu"], output=["L", "load_max", "status"])[-1]
     assert res["status"] == 1
     assert res["load_max"] == pytest.approx(j1, rel=1e-9)
     assert abs(res["L"] - 1_400_000.0) == pytest.approx(j2, rel=1e-9)
     with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu", files["controller_fmu"]) as loop:
-        f, _ = problem.evaluate_flights([loop.run(s) for s in problem.initial_states])
+        f = problem.evaluate([loop.run(s) for s in problem.initial_states]).f
     assert f == (j1, j2)
     # the SSP of the same loop (schema-checked) holds the native law, not the generic controller
     ssd = read_ssd(files["ssp"], validate=True)
@@ -232,7 +233,7 @@ def test_two_output_law_reproduces_its_recorded_numbers(fmu_dir, tmp_path):
     plant = problem.fmu_paths(fmu_dir)[0]
     with ClosedLoop(problem.wiring, plant, path, record=problem.record) as loop:
         results = [loop.run(s, record=bool(problem.record)) for s in problem.initial_states]
-    (j1, j2), _ = problem.evaluate_flights(results)
+    (j1, j2) = problem.evaluate(results).f
     assert (j1, j2) == pytest.approx((meta["J1"], meta["J2"]), rel=1e-9)
 
 
@@ -341,7 +342,7 @@ def test_fmpy_compile_rebuilds_it(reentry_export, tmp_path):
 
 def test_fmu_rejects_calls_out_of_order(tmp_path):
     log = []
-    fmu = load_slave(build_law_fmu(NetworkOperator.basic_law(), tmp_path / "B.fmu", "B"), "b",
+    fmu = load_slave(build_law_fmu(paper_basic_law(), tmp_path / "B.fmu", "B"), "b",
                      log)
     try:
         with pytest.raises(Exception):

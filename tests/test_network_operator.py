@@ -11,6 +11,7 @@ from descent_fmus.models.controllers.network_operator import (BIG, L_MAX, UNARY,
                                                  PAPER_Q)
 from descent_fmus.synthesis.fmi.closed_loop import FMUError, load_slave
 from descent_fmus.synthesis.methods.law import CapacityError, LawFileError, NetworkOperator
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 
 def random_law(rng: np.random.Generator, L: int, nx: int = 2, nq: int = 2) -> NetworkOperator:
@@ -26,7 +27,7 @@ def random_law(rng: np.random.Generator, L: int, nx: int = 2, nq: int = 2) -> Ne
 
 def test_basic_law_is_the_linear_law():
     # Diveev & Shmalko eqs. (24)-(25): u = clip(q1 y1 + q2 y2, -0.2, 0.2)
-    law = NetworkOperator.basic_law()
+    law = paper_basic_law()
     q1, q2 = PAPER_Q
     for y in [(0.01, -0.02), (0.3, 0.1), (-1.0, 0.0)]:
         expect = min(max(q1 * y[0] + q2 * y[1], -0.2), 0.2)
@@ -35,7 +36,7 @@ def test_basic_law_is_the_linear_law():
 
 def test_paper_law_matches_its_printed_formula():
     # the paper's printed law: z = z15 - y1, z15 = z14 + rho4(z9) + rho8(y1), ... (printed expression)
-    law = NetworkOperator.paper_law()
+    law = paper_law()
     q1, q2 = PAPER_Q
     r4 = lambda z: math.copysign(math.sqrt(abs(z)), z) if z != 0 else 0.0  # noqa: E731
     r8 = lambda z: (1 - math.exp(-z)) / (1 + math.exp(-z))                  # noqa: E731
@@ -69,7 +70,7 @@ def test_operations_are_overflow_safe():
 def test_fmu_equals_in_process_evaluation(fmu_dir):
     rng = np.random.default_rng(2026)
     fmu = load_slave(fmu_dir / "NetworkOperatorController.fmu", "no")
-    md = fmu._descent_md
+    md = fmu.model
     vr = {v.name: v.valueReference for v in md.modelVariables}
     try:
         checked = 0
@@ -100,7 +101,7 @@ def test_fmu_equals_in_process_evaluation(fmu_dir):
 
 
 def test_json_round_trip(tmp_path):
-    law = NetworkOperator.paper_law()
+    law = paper_law()
     path = law.save(tmp_path / "law.json")
     back = NetworkOperator.load(path)
     assert np.array_equal(back.psi, law.psi) and back.q == law.q
@@ -109,7 +110,7 @@ def test_json_round_trip(tmp_path):
 
 
 def test_formula_of_basic_law():
-    assert NetworkOperator.basic_law().formula(4) == "((y1*2.259)+(y2*1.953))"
+    assert paper_basic_law().formula(4) == "((y1*2.259)+(y2*1.953))"
     # scaled and offset inputs print as the node holds them: scale * (x - offset), the sign
     # of a negative offset folded ("+0.25", not "--0.25")
     law = NetworkOperator.linear([[1.0, 1.0]], input_names=["y1", "y2"],
@@ -160,7 +161,7 @@ def test_law_larger_than_the_fmu():
 
 def test_non_finite_parameter():
     with pytest.raises(MatrixError, match="q2 must be finite"):
-        NetworkOperator.basic_law(q=(1.0, math.inf))
+        paper_basic_law(q=(1.0, math.inf))
 
 
 def test_malformed_law_file(tmp_path):

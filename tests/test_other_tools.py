@@ -14,6 +14,7 @@ from descent_fmus.synthesis.fmi.other_tools import EcosUnavailable, run_ecos
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.systems.reentry.flight import load_loop
 from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 
 def test_ecos_agrees_with_fmpy(fmu_dir, tmp_path):
@@ -26,7 +27,7 @@ def test_ecos_agrees_with_fmpy(fmu_dir, tmp_path):
     loop = load_loop(fmu_dir)
     try:
         ours = loop.run(spec.plant_values(ReentryParams()),
-                        NetworkOperator.basic_law().start_values(), scheme="jacobi").final
+                        paper_basic_law().start_values(), scheme="jacobi").final
     finally:
         loop.close()
     assert last["plant::status"] == 1

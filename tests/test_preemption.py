@@ -22,7 +22,8 @@ import pytest
 ROOT = Path(__file__).resolve().parent.parent
 # the reentry problem as a problem file (the variational GA alone), a small budget
 SMALL = ["--problem", ROOT / "synthesis/systems/reentry/reentry.toml", "--population", "16",
-         "--crossovers", "6", "--lchr", "4", "--epoch", "3", "--seed", "6", "--quiet",
+         "--crossovers", "6", "--lchr", "4", "--epoch", "3", "--seed", "6", "--refine-basis",
+         "0", "--refine-evals", "0", "--flights", "0", "--basis-rule", "compromise", "--quiet",
          "--no-export", "--no-reference"]
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),

@@ -15,7 +15,6 @@ from pathlib import Path
 
 import pytest
 
-from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.problems.files import ProblemFileError, load_problem_file
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.run.loop import run_synthesis
@@ -49,7 +48,7 @@ def test_tutorial_problem_runs_through_the_fmus(hopper_dir, fmu_dir, tmp_path):
     assert problem.objective_names == ("v_touchdown", "fuel")
     assert len(problem.initial_states) == 6                     # samples = 6 (LHS box)
     out = tmp_path / "run"
-    s = run_synthesis(problem, out, fmu_dir, Budget(**SMALL, seed=1), progress=False)
+    s = run_synthesis(problem.tuned(**SMALL, seed=1), out, fmu_dir, progress=False)
     assert s["failures"] == 0 and s["pareto_size"] >= 1
     rows = list(csv.DictReader(open(out / "pareto.csv")))
     best = min(float(r["v_touchdown"]) for r in rows)
@@ -64,17 +63,29 @@ def test_tutorial_problem_runs_through_the_fmus(hopper_dir, fmu_dir, tmp_path):
 
 
 def test_reentry_as_a_file_gives_the_registered_pareto_set(fmu_dir, tmp_path):
-    # Oracle: the registered Python problem `reentry`; same seed => the same Pareto set.
+    # Oracle: the registered Python problem `reentry`; the file states its whole recipe (the
+    # budget, the GA, the CMA-ES refinement of the basis and of the best laws with its target
+    # J1 subject to miss < 1 km, the basis rule): same seed => the same Pareto set
+    registered = get_problem("reentry")
     file_problem = load_problem_file(ROOT / "synthesis/systems/reentry/reentry.toml",
                                      fmu_dir=fmu_dir)
-    budget = Budget(**SMALL, seed=2)
-    a = run_synthesis(get_problem("reentry"), tmp_path / "a", fmu_dir, budget, progress=False,
-                      export=False, reference=False)
-    b = run_synthesis(file_problem, tmp_path / "b", fmu_dir, budget, progress=False,
-                      export=False, reference=False)
+    assert (file_problem.budget, file_problem.ga, file_problem.refine, file_problem.target,
+            file_problem.q_bits) == (registered.budget, registered.ga, registered.refine,
+                                     registered.target, registered.q_bits)
+    small = dict(SMALL, seed=2, generations=8, refine_evals=30, refine_basis=40, flights=400)
     key = lambda r: (r["J1"], r["J2"], r["formula"])  # noqa: E731
-    assert [key(r) for r in a["pareto"]] == [key(r) for r in b["pareto"]]
-    assert a["basic_law"] == b["basic_law"]
+    runs = [run_synthesis(p.tuned(**small), tmp_path / n, fmu_dir, progress=False,
+                          export=False, reference=False)
+            for n, p in (("a", registered), ("b", file_problem))]
+    assert runs[0]["simulated"] > 100              # the refinement ran (40 + 30 per epoch)
+    assert [key(r) for r in runs[0]["pareto"]] == [key(r) for r in runs[1]["pareto"]]
+    assert runs[0]["basic_law"] == runs[1]["basic_law"]
+    # the file's polynomial baseline is the registered one: the same CMA-ES run
+    base = [run_synthesis(p.tuned(flights=20, seed=3), tmp_path / f"c{n}", fmu_dir,
+                          method="cma-polynomial", progress=False, export=False,
+                          reference=False)
+            for n, p in (("a", registered), ("b", file_problem))]
+    assert [key(r) for r in base[0]["pareto"]] == [key(r) for r in base[1]["pareto"]]
 
 
 BAD = [

@@ -14,21 +14,22 @@ import pytest
 from fmpy import simulate_fmu
 
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.run.loop import methods, run_synthesis
+from descent_fmus.synthesis.methods.registry import method_names
+from descent_fmus.synthesis.run.loop import run_synthesis
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 REENTRY = get_problem("reentry")
 TINY = dict(population=8, generations=0, crossovers=2, lchr=2, epoch=2)
 
 
 def test_baselines_are_laws_of_the_generic_controller(fmu_dir):
-    assert methods(REENTRY) == ["network-operator", "cma-basic", "cma-polynomial", "cma-tanh"]
+    assert method_names(REENTRY) == ["network-operator", "cma-basic", "cma-polynomial", "cma-tanh"]
     structures = REENTRY.baselines()
     with load_loop(fmu_dir) as loop:
         flights = {n: fly(law, loop=loop).objectives for n, law in structures.items()}
-        paper = fly(NetworkOperator.basic_law(), loop=loop).objectives
+        paper = fly(paper_basic_law(), loop=loop).objectives
         own = fly(REENTRY.basic(), loop=loop).objectives
     # the basic-law and polynomial baselines start at the paper's basic law (the polynomial's
     # linear coefficients are q1/10, q2/2 on the inputs 10 y1, 2 y2): the same flight
@@ -50,7 +51,7 @@ def test_baselines_are_laws_of_the_generic_controller(fmu_dir):
 
 
 def test_baseline_run_exports_laws_that_replay_under_fmpy(fmu_dir, tmp_path):
-    s = run_synthesis(REENTRY, tmp_path / "poly", fmu_dir, Budget(**TINY, seed=1, flights=20),
+    s = run_synthesis(REENTRY.tuned(**TINY, seed=1, flights=20), tmp_path / "poly", fmu_dir,
                       progress=False, reference=False, method="cma-polynomial")
     assert s["method"] == "cma-polynomial" and s["evaluations"] >= 20 and s["failures"] == 0
     rows = json.loads((tmp_path / "poly" / "pareto.json").read_text())
@@ -65,13 +66,13 @@ def test_baseline_run_exports_laws_that_replay_under_fmpy(fmu_dir, tmp_path):
 
 
 def test_baseline_run_resumes_to_the_uninterrupted_result(fmu_dir, tmp_path):
-    budget = Budget(**TINY, seed=4, flights=40)
-    a = run_synthesis(REENTRY, tmp_path / "a", fmu_dir, budget, progress=False, export=False,
+    problem = REENTRY.tuned(**TINY, seed=4, flights=40)
+    a = run_synthesis(problem, tmp_path / "a", fmu_dir, progress=False, export=False,
                       reference=False, method="cma-tanh")
-    cut = run_synthesis(REENTRY, tmp_path / "b", fmu_dir, budget, progress=False, export=False,
+    cut = run_synthesis(problem, tmp_path / "b", fmu_dir, progress=False, export=False,
                         reference=False, method="cma-tanh", stop_after=2)
     assert cut["interrupted"]
-    b = run_synthesis(REENTRY, tmp_path / "b", fmu_dir, budget, progress=False, export=False,
+    b = run_synthesis(problem, tmp_path / "b", fmu_dir, progress=False, export=False,
                       reference=False, method="cma-tanh", resume=True)
     key = lambda r: (r["J1"], r["J2"], r["formula"])  # noqa: E731
     assert [key(r) for r in a["pareto"]] == [key(r) for r in b["pareto"]]

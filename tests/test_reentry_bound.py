@@ -16,6 +16,7 @@ from descent_fmus.synthesis.systems.reentry.bound import (Program, ProgramFlight
                                                           optimize_open_loop, replay_program)
 from descent_fmus.synthesis.systems.reentry.robustness import (dispersion_samples,
                                                                dispersion_study, plot_study)
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 P = ReentryParams()
 
@@ -85,7 +86,7 @@ def test_the_blind_program_misses_under_dispersion(program, fmu_dir, tmp_path):
     # dispersion set (rho0 +-15 %, m +-5 %, V0 +-50 m/s, beta0 +-0.03 deg) its median miss is
     # many km although its nominal replay through the FMUs (ProgramController, step = segment)
     # reproduces the optimised flight exactly.
-    study = dispersion_study({"basic": NetworkOperator.basic_law()}, program, samples=12,
+    study = dispersion_study({"basic": paper_basic_law()}, program, samples=12,
                              seed=7, fmu_dir=fmu_dir)
     assert plot_study(study, tmp_path / "robust.png").stat().st_size > 10_000
     prog = study["stats"]["open-loop program (blind)"]
@@ -96,7 +97,7 @@ def test_the_blind_program_misses_under_dispersion(program, fmu_dir, tmp_path):
     # every row is a flight through the FMUs: the nominal basic-law row equals fly()
     from descent_fmus.synthesis.systems.reentry.flight import fly
     assert study["results"]["basic"][0]["J2"] == \
-        fly(NetworkOperator.basic_law(), fmu_dir=fmu_dir).objectives["J2"]
+        fly(paper_basic_law(), fmu_dir=fmu_dir).objectives["J2"]
 
 
 def test_dispersion_samples_are_seeded_and_in_range():

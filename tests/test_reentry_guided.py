@@ -110,8 +110,8 @@ def test_guided_problem_judges_the_basic_solution_on_the_set(fmu_dir):
     problem = get_problem("reentry-guided")
     plant, ctrl = problem.fmu_paths(fmu_dir)
     with ClosedLoop(problem.wiring, plant, ctrl) as loop:
-        f, extras = problem.evaluate_flights(problem.runner.flights(loop, problem,
-                                                                    problem.basic()))
+        outcome = problem.evaluate(problem.runner.flights(loop, problem, problem.basic()))
+    f, extras = outcome.f, outcome.extras
     assert extras["flights"] == sensed.SYNTHESIS_SAMPLES and extras["miss_nominal"] < 100.0
     assert f[1] < 1000.0 and extras["within_1km"] >= 0.6
     alone = fly_law(NOMINAL, sensed.synthesis_set(), fmu_dir)

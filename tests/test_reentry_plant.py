@@ -17,6 +17,7 @@ from scipy.optimize import minimize_scalar
 from descent_fmus.models.fmu_support import ParameterError
 from descent_fmus.models.reentry import (ReentryParams, altitude, downrange, initial_state, loads, rhs,
                             simulate)
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 P = ReentryParams()
 
@@ -104,7 +105,7 @@ def test_true_peak_of_a_sampled_flight_matches_solve_ivp(fmu_dir):
     # load on a 0.01 s grid of every hold interval plus both ends of it (the jumps).
     from descent_fmus.synthesis.methods.law import NetworkOperator
     from descent_fmus.synthesis.systems.reentry.flight import fly
-    f = fly(NetworkOperator.basic_law(), fmu_dir=fmu_dir, record=True)
+    f = fly(paper_basic_law(), fmu_dir=fmu_dir, record=True)
     u = f.result["ctrl.u[1]"]
     kd = P.constants()[1]
     x, peak = np.array(initial_state(P)), 0.0

@@ -105,11 +105,12 @@ def test_racing_stops_a_law_that_misses_the_nominal_flight(fmu_dir):
         bad.input_names = ["y1", "y2", "y3"]
         results = problem.runner.flights(loop, problem, bad)
         assert len(results) == 1                              # raced out after the nominal
-        f, extras = problem.evaluate_flights(results)
+        outcome = problem.evaluate(results)
+        f, extras = outcome.f, outcome.extras
         assert f[1] >= 2 * sensed.RACE_OFFSET and extras["raced_out"]
         good = problem.runner.flights(loop, problem, problem.basic())
         assert len(good) == sensed.SYNTHESIS_SAMPLES            # flew the whole set
-        g, _ = problem.evaluate_flights(good)
+        g = problem.evaluate(good).f
         assert g[1] < sensed.RACE_OFFSET                        # ranked before any raced-out law
         miss = [min(spec.objectives(r.final, P0)["J2"], sensed.MISS_CAP) for r in good]
         assert g[1] == pytest.approx(float(np.mean(miss)), rel=1e-12)   # the default: mean
@@ -147,7 +148,6 @@ def test_exported_closed_loop_with_the_estimator_reproduces_the_pareto_row(fmu_d
     # the robust law as users get it (controller FMU with the estimator and the law as
     # defaults, closed-loop container, SSP), flown by fmpy simulate from every point of the
     # synthesis set: the objectives equal the evaluator's row
-    from descent_fmus.synthesis.run.evaluation import evaluate_on
     from descent_fmus.synthesis.fmi.law_files import export_law_files
     problem = next(p for p in sensed.problems() if p.name == "reentry-sensed")
     law = sensed.default_law()
@@ -156,12 +156,13 @@ def test_exported_closed_loop_with_the_estimator_reproduces_the_pareto_row(fmu_d
     assert out["law_fmu"] == "python" and out["ssp"].endswith(".ssp")
     with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu",
                     fmu_dir / "SensedNetworkOperatorController.fmu") as loop:
-        f, extras = evaluate_on(loop, problem, law)
+        outcome = problem.evaluate(problem.runner.flights(loop, problem, law))
+    f, extras = outcome.f, outcome.extras
     assert extras["flights"] == sensed.SYNTHESIS_SAMPLES
 
     class Final:
-        def __init__(self, row):
-            self.final = row
+        def __init__(self, row, start):
+            self.final, self.start = row, start
 
     finals = []
     unzipped = extract(out["closed_loop_fmu"], str(tmp_path / "cl"))
@@ -172,7 +173,7 @@ def test_exported_closed_loop_with_the_estimator_reproduces_the_pareto_row(fmu_d
         res = simulate_fmu(unzipped, start_values=s, step_size=T_PLUS, output_interval=T_PLUS,
                            fmu_instance=fmu, terminate=False,
                            output=["L", "h", "load_max", "aero_load_max", "status", "t_end"])
-        finals.append(Final({k: res[-1][k] for k in res.dtype.names}))
+        finals.append(Final({k: res[-1][k] for k in res.dtype.names}, s))
     fmu.freeInstance()
     g, _ = problem.objectives(finals)
     assert g == pytest.approx(f, rel=1e-12)

@@ -17,10 +17,10 @@ from fmpy import simulate_fmu
 
 from descent_fmus.synthesis.run.evaluation import Evaluator, SchedulerError
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
 from descent_fmus.synthesis.run.loop import RunDirError, run_synthesis
 from descent_fmus.synthesis.systems.reentry.flight import fly
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 ROOT = Path(__file__).resolve().parent.parent
 SMALL = dict(population=16, crossovers=6, lchr=4, epoch=3, elite_trim=2)
@@ -29,22 +29,24 @@ REENTRY = get_problem("reentry")
 
 def test_evaluator_equals_an_fmpy_run(fmu_dir):
     # the evaluator is built from FMU paths alone; its objectives equal a plain closed-loop run
-    laws = [NetworkOperator.basic_law(), NetworkOperator.paper_law(),
+    laws = [paper_basic_law(), paper_law(),
             get_problem("reentry").basic()]
     with Evaluator(REENTRY, fmu_dir) as ev:
-        F, extras = ev.evaluate(laws + laws)         # duplicates are not simulated twice
-        assert ev.simulated == 3
+        ev_ = ev.evaluate(laws + laws)               # duplicates are not simulated twice
+        F = ev_.F
+        assert ev.simulated == 3 and ev_.flown == 3
     for law, f in zip(laws, F):
         o = fly(law, fmu_dir=fmu_dir).objectives
         assert f[0] == o["J1"] and f[1] == o["J2"]
 
 
 def test_fmu_error_costs_one_candidate(fmu_dir):
-    bad = NetworkOperator.basic_law()
+    bad = paper_basic_law()
     bad.psi[0, 4] = 99            # bypasses validation: the FMU itself must reject it
-    good = NetworkOperator.basic_law()
+    good = paper_basic_law()
     with Evaluator(REENTRY, fmu_dir) as ev:
-        F, extras = ev.evaluate([bad, good])
+        res = ev.evaluate([bad, good])
+        F, extras = res.F, res.extras
         assert ev.failures == 1
     prob = get_problem("reentry")
     assert tuple(F[0]) == prob.penalty and extras[0]["failed"] is True
@@ -54,34 +56,36 @@ def test_fmu_error_costs_one_candidate(fmu_dir):
 
 def test_local_pool_equals_in_process(fmu_dir):
     rng = np.random.default_rng(3)
-    laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
+    laws = [paper_basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
     with Evaluator(REENTRY, fmu_dir) as ev1, Evaluator(REENTRY, fmu_dir, workers=2) as ev2:
-        assert np.array_equal(ev1.evaluate(laws)[0], ev2.evaluate(laws)[0])
+        assert np.array_equal(ev1.evaluate(laws).F, ev2.evaluate(laws).F)
 
 
 def test_local_worker_death_costs_no_candidate(fmu_dir):
     # a worker process of the local pool dies between batches: the batch fails with a broken
     # pool, a fresh pool is started and the candidates are retried -- same numbers, no penalty
     rng = np.random.default_rng(5)
-    laws = [NetworkOperator.basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
+    laws = [paper_basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
     with Evaluator(REENTRY, fmu_dir) as ev1:
-        F_ref = ev1.evaluate(laws)[0]
+        F_ref = ev1.evaluate(laws).F
     with Evaluator(REENTRY, fmu_dir, workers=2) as ev:
-        ev.evaluate([NetworkOperator.basic_law()])          # start the workers
-        old_pool = ev._pool
-        for proc in list(ev._pool._processes.values()):
-            os.kill(proc.pid, signal.SIGKILL)
+        ev.evaluate([paper_basic_law()])          # start the workers
+        pids = ev.backend.worker_pids()
+        assert pids
+        for pid in pids:
+            os.kill(pid, signal.SIGKILL)
         time.sleep(0.5)
-        F = ev.evaluate(laws)[0]
-        assert ev._pool is not old_pool                     # the broken pool was replaced
+        F = ev.evaluate(laws).F
+        assert ev.backend.worker_pids() - pids            # the broken pool was replaced
         assert ev.failures == 0
     assert np.array_equal(F, F_ref)
 
 
 def _run(out, fmu_dir, generations=6, seed=11, **kw):
     kw.setdefault("reference", False)
-    return run_synthesis(REENTRY, out, fmu_dir, Budget(**SMALL, generations=generations,
-                                                       seed=seed), progress=False, **kw)
+    problem = REENTRY.tuned(**SMALL, generations=generations, seed=seed, refine_evals=0,
+                            refine_basis=0, flights=0, basis_rule="compromise")
+    return run_synthesis(problem, out, fmu_dir, progress=False, **kw)
 
 
 def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):

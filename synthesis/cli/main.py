@@ -3,7 +3,7 @@
 One pattern: general commands act on any problem, system commands are
 ``descent-fmus <system> <action>``::
 
-    descent-fmus synthesize NAME | --problem FILE.toml --out DIR   network-operator synthesis
+    descent-fmus synthesize NAME | --problem FILE.toml --out DIR   synthesis of a feedback law
     descent-fmus problems                                          registered problems, systems
     descent-fmus info SYSTEM                                       FMUs and parameter tables
     descent-fmus reentry fly | bound | robustness
@@ -24,8 +24,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from descent_fmus.synthesis.cli.common import (CliError, OneLineParser, add_common_options,
-                                               emit, fmu_folder, nonnegative_int, positive_int)
+from descent_fmus.synthesis.cli.common import CliError, OneLineParser, add_common_options, emit
 
 __all__ = ["main", "build_parser"]
 
@@ -37,7 +36,8 @@ def build_parser() -> argparse.ArgumentParser:
                        epilog="\n".join(__doc__.splitlines()[2:]))
     sub = ap.add_subparsers(dest="command", required=True, metavar="COMMAND",
                             parser_class=OneLineParser)
-    _add_synthesize(sub)
+    from descent_fmus.synthesis.cli.synthesize import add_synthesize_command
+    add_synthesize_command(sub)
     from descent_fmus.synthesis.fmi.law_files import add_export_law_command
     add_export_law_command(sub)
     from descent_fmus.synthesis.cli.fine_output import add_fine_output_command
@@ -61,166 +61,9 @@ def build_parser() -> argparse.ArgumentParser:
     return ap
 
 
-# -- synthesize -----------------------------------------------------------------------------------
-def _add_synthesize(sub) -> None:
-    p = sub.add_parser("synthesize", help="network-operator synthesis by the variational GA "
-                       "(the closed-loop FMU co-simulation is its evaluator)")
-    p.add_argument("name", nargs="?", help="registered problem (descent-fmus problems lists "
-                   "them); or give --problem FILE")
-    p.add_argument("--problem", type=Path, metavar="FILE.toml",
-                   help="a problem file for any FMI 2.0 co-simulation plant FMU")
-    g = p.add_argument_group("budget (default: the problem's own)")
-    g.add_argument("--population", type=positive_int, default=None)
-    g.add_argument("--generations", type=nonnegative_int, default=None)
-    g.add_argument("--crossovers", type=positive_int, default=None,
-                   help="crossover attempts per generation (4 children each)")
-    g.add_argument("--lchr", type=nonnegative_int, default=None,
-                   help="variations per individual (0 = parameter search of the basic law)")
-    g.add_argument("--epoch", type=positive_int, default=None,
-                   help="generations between changes of the basic solution")
-    g.add_argument("--seed", type=int, default=None, help="random seed; same seed, same result")
-    g.add_argument("--refine-basis", type=nonnegative_int, default=None, metavar="N",
-                   help="CMA-ES evaluations on the basic solution's parameters before the "
-                        "structure search (0 = none)")
-    g.add_argument("--refine-evals", type=nonnegative_int, default=None,
-                   help="CMA-ES evaluations per parameter refinement inside the GA (0 = the "
-                        "GA alone)")
-    g.add_argument("--flights", type=nonnegative_int, default=None,
-                   help="flight budget (laws flown, each over all the problem's initial "
-                        "states): a cma-* method flies this many; the network operator stops "
-                        "there too (0 = by generations)")
-    p.add_argument("--statistic", default=None, metavar="NAME",
-                   help="statistic of the miss over the sample set, for problems judged on one "
-                        "(reentry-sensed, -sensed-y12, -guided): mean, median, p75, p90, max")
-    p.add_argument("--method", default="network-operator",
-                   help="network-operator (default: the variational GA) or cma-<baseline>: "
-                        "CMA-ES over the parameters of one of the problem's fixed structures "
-                        "(reentry: cma-basic, cma-polynomial, cma-tanh), same evaluator")
-    p.add_argument("--wide-ops", action="store_true",
-                   help="let variations use the authors' wider operation set (28 unary, 4 binary)")
-    p.add_argument("--workers", type=positive_int, default=2, help="local worker processes")
-    p.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT): evaluate on "
-                   "that cluster instead of local processes (its workers need only the "
-                   "installed package; the FMUs are shipped); 'local': a Dask LocalCluster of "
-                   "--workers processes")
-    p.add_argument("--out", type=Path, default=Path("runs/synthesis"),
-                   help="output folder (default runs/synthesis)")
-    p.add_argument("--resume", action="store_true", help="continue the run in --out")
-    p.add_argument("--no-export", action="store_true", help="skip exporting the Pareto laws")
-    p.add_argument("--export", choices=("laws", "all"), default="laws",
-                   help="per Pareto law: 'laws' = law.json (with the readable formula), "
-                        "law.h/law.c and the law FMU (default); 'all' = also its closed-loop "
-                        "FMU and SSP (about 1.7 MB a law)")
-    p.add_argument("--law-fmu", choices=("native", "python"), default=None,
-                   help="the law FMUs: native C (default where a C compiler exists) or the "
-                        "pythonfmu controller with the law as defaults")
-    p.add_argument("--no-reference", action="store_true",
-                   help="skip the problem's expensive report reference (reentry: the open-loop "
-                        "bound, ~20 s)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
-    add_common_options(p)
-    p.set_defaults(func=run_synthesize)
-
-
-def load_problem(args):
-    """The problem named on the command line or given as a file (CliError otherwise)."""
-    from descent_fmus.synthesis.problems.files import ProblemFileError, load_problem_file
-    from descent_fmus.synthesis.registry import UnknownProblemError, get_problem
-    if (args.name is None) == (args.problem is None):
-        raise CliError("give a registered problem name or --problem FILE (one of them); "
-                       "'descent-fmus problems' lists the names")
-    if args.problem is not None:
-        try:
-            return load_problem_file(args.problem, fmu_dir=fmu_folder(args))
-        except ProblemFileError as exc:
-            raise CliError(str(exc)) from None
-    try:
-        return get_problem(args.name)
-    except UnknownProblemError as exc:
-        raise CliError(str(exc)) from None
-
-
-def with_statistic(problem, name):
-    """``problem`` judged with the set statistic ``name`` (None: unchanged); CliError if the
-    problem has no set statistic or the name is unknown."""
-    if name is None:
-        return problem
-    from dataclasses import replace
-    if not hasattr(problem.objectives, "statistic"):
-        raise CliError(f"problem {problem.name} is not judged on a sample set: --statistic "
-                       f"does not apply")
-    try:
-        objectives = replace(problem.objectives, statistic=name)
-    except ValueError as exc:
-        raise CliError(str(exc)) from None
-    labels = problem.labels[:1] + (f"J2 = {name} miss over the set [m]",) + problem.labels[2:]
-    return problem.with_(objectives=objectives, objective_labels=labels,
-                         source=f"{problem.source}, statistic {name}")
-
-
-def _law_export(args):
-    """What ``synthesize`` exports per Pareto law (``--no-export``, ``--export``,
-    ``--law-fmu``); a compiler missing for ``--law-fmu native`` is a user error."""
-    from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu
-    from descent_fmus.synthesis.fmi.native.build import CompilerNotFoundError
-    if args.no_export:
-        return False
-    try:
-        choose_law_fmu(args.law_fmu or "auto")
-    except CompilerNotFoundError as exc:
-        raise CliError(str(exc)) from None
-    return LawExport(law_fmu=args.law_fmu or "auto", closed_loops=args.export == "all")
-
-
-def run_synthesize(args) -> int:
-    from descent_fmus.synthesis.run.evaluation import SchedulerError, SystematicFailure
-    from descent_fmus.synthesis.paths import FMUNotFoundError
-    from descent_fmus.synthesis.run.loop import RunDirError, run_synthesis
-
-    problem = with_statistic(load_problem(args), args.statistic)
-    try:
-        budget = problem.budget.with_(population=args.population,
-                                      generations=args.generations,
-                                      crossovers=args.crossovers, lchr=args.lchr,
-                                      epoch=args.epoch, seed=args.seed,
-                                      flights=args.flights, refine_evals=args.refine_evals,
-                                      refine_basis=args.refine_basis)
-    except ValueError as exc:
-        raise CliError(str(exc)) from None
-    from descent_fmus.synthesis.run.loop import methods
-    if args.method not in methods(problem):
-        raise CliError(f"unknown method {args.method!r} for problem {problem.name}; available: "
-                       f"{', '.join(methods(problem))}")
-    if args.method != "network-operator" and budget.flights < 1:
-        raise CliError(f"method {args.method} needs a flight budget: give --flights N")
-    try:
-        summary = run_synthesis(problem, args.out, fmu_folder(args), budget,
-                                workers=args.workers, scheduler=args.scheduler,
-                                resume=args.resume, wide_ops=args.wide_ops,
-                                progress=not (args.quiet or args.json),
-                                export=_law_export(args), reference=not args.no_reference,
-                                method=args.method)
-    except (RunDirError, SchedulerError, FMUNotFoundError, SystematicFailure) as exc:
-        raise CliError(str(exc)) from None
-    short = {k: v for k, v in summary.items() if k != "pareto"}
-    lines = [f"synthesis of {problem.name} ({args.method}): {summary['generations']} "
-             f"generations, "
-             f"{summary['simulated']} closed-loop simulations in {summary['seconds']:.0f} s "
-             f"({summary['evaluations_per_second']:.0f}/s, {summary['failures']} failed), "
-             f"{summary['pareto_size']} Pareto laws",
-             f"  results in {args.out}: pareto.csv, pareto.json, pareto.png, summary.json"
-             + (", laws/<k>/" if not args.no_export else "")]
-    if summary.get("first_failure"):       # failed candidates were penalised: the first reason
-        lines.append(f"  first failed evaluation: {summary['first_failure']}")
-    if summary.get("law_fmu_note"):
-        lines.append(f"  note: {summary['law_fmu_note']}")
-    lines += problem.report.lines(summary)
-    emit(args, short, "\n".join(lines))
-    return 0
-
-
 # -- listings ---------------------------------------------------------------------------------------
 def run_problems(args) -> int:
+    from descent_fmus.synthesis.methods.registry import method_names
     from descent_fmus.synthesis.registry import all_systems
     systems, problems = [], []
     for s in all_systems():
@@ -231,10 +74,17 @@ def run_problems(args) -> int:
             problems.append({"problem": pb.name, "system": s.cli_name,
                              "description": pb.description,
                              "objectives": list(pb.objective_names),
-                             "initial_states": len(pb.initial_states)})
+                             "constraints": [c.name for c in pb.constraints],
+                             "initial_states": len(pb.initial_states),
+                             "methods": method_names(pb),
+                             "options": [o.name for o in pb.options]})
     lines = ["synthesis problems (descent-fmus synthesize NAME; any plant FMU: --problem "
              "FILE.toml):"]
-    lines += [f"  {p['problem']:16s} {p['description']}" for p in problems]
+    for p in problems:
+        lines.append(f"  {p['problem']:16s} {p['description']}")
+        extra = ", ".join(p["methods"]) + (f"; options: {', '.join(p['options'])}"
+                                           if p["options"] else "")
+        lines.append(f"  {'':16s}   methods: {extra}")
     lines.append("systems (descent-fmus SYSTEM --help):")
     lines += [f"  {s['system']:16s} {s['title']}" for s in systems]
     emit(args, {"problems": problems, "systems": systems}, "\n".join(lines))

@@ -18,7 +18,7 @@ from __future__ import annotations
 import ctypes
 import math
 import shutil
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +29,7 @@ from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFr
 from descent_fmus.synthesis.paths import FMUNotFoundError, require_fmu
 
 __all__ = ["Wiring", "Stop", "STATUS_STOP", "ClosedLoop", "ClosedLoopResult",
-           "FMUNotFoundError", "FMUError", "load_slave"]
+           "FMUNotFoundError", "FMUError", "LoadedFMU", "load_slave"]
 
 
 class FMUError(RuntimeError):
@@ -133,6 +133,9 @@ class ClosedLoopResult:
         Communication steps taken.
     t_final : float
         Time of the last communication point [s] (the stop, or the stop time).
+    start : dict
+        The plant start values the run was flown from (the initial state; what an objective
+        reads to judge the flight against its own conditions).
     """
 
     time: np.ndarray
@@ -141,29 +144,58 @@ class ClosedLoopResult:
     stopped: bool
     steps: int
     t_final: float = 0.0
+    start: dict = field(default_factory=dict)
 
     def __getitem__(self, name):
         return self.outputs[name]
 
 
+class LoadedFMU:
+    """An extracted and instantiated FMI 2.0 co-simulation FMU (fmpy's ``FMU2Slave``) with what
+    this package keeps beside it: the model description, the folder it was extracted to, the
+    FMU's log and the ctypes callbacks that must outlive the instance.  FMI calls are fmpy's:
+    ``loaded.getReal(...)`` is ``loaded.slave.getReal(...)``."""
+
+    def __init__(self, slave: FMU2Slave, model, unzipdir: str, log: list | None, callbacks):
+        self.slave, self.model, self.unzipdir, self.log = slave, model, unzipdir, log
+        self._callbacks = callbacks
+
+    def __getattr__(self, name):
+        # only reached for names this wrapper does not define: fmpy's FMI functions
+        return getattr(self.__dict__["slave"], name)
+
+    def remove_files(self) -> None:
+        """Delete the extracted folder (files only: no FMU call)."""
+        shutil.rmtree(self.unzipdir, ignore_errors=True)
+
+    def free(self) -> None:
+        """Terminate, free the instance and delete its folder."""
+        try:
+            self.slave.terminate()
+        except Exception:
+            pass
+        try:
+            self.slave.freeInstance()
+        finally:
+            self.remove_files()
+
+
 def load_slave(path, instance_name: str, log: list | None = None,
-               validate: bool = True, logging_on: bool = True) -> FMU2Slave:
-    """Extract and instantiate an FMI 2.0 co-simulation FMU once (fmpy ``FMU2Slave``).
+               validate: bool = True, logging_on: bool = True) -> LoadedFMU:
+    """Extract and instantiate an FMI 2.0 co-simulation FMU once (:class:`LoadedFMU`).
 
     ``validate=False`` skips fmpy's checks of the model description and ``logging_on=False``
     asks the FMU to log errors only (for the evaluation-only containers of
-    ``synthesis.fmi.container_loop``: their parameters carry no start value, and a container logging on
-    reports every call of its components)."""
+    ``synthesis.fmi.container_loop``: their parameters carry no start value, and a container
+    logging on reports every call of its components)."""
     path = require_fmu(path)
     md = read_model_description(str(path), validate=validate)
     if md.fmiVersion != "2.0" or md.coSimulation is None:
         raise FMUError(f"{path}: need an FMI 2.0 co-simulation FMU, got FMI {md.fmiVersion} "
                        f"{'co-simulation' if md.coSimulation else 'model exchange only'}")
     unzipdir = extract(str(path))
-    fmu = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                    modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
-    fmu._descent_unzipdir = unzipdir
-    fmu._descent_md = md
+    slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
+                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
 
     def logger(component, instance, status, category, message):
         if log is not None:
@@ -173,12 +205,22 @@ def load_slave(path, instance_name: str, log: list | None = None,
     callbacks.logger = fmi2CallbackLoggerTYPE(logger)
     callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-    fmu._descent_callbacks = callbacks  # keep a reference: ctypes callbacks must outlive the FMU
-    fmu.instantiate(callbacks=callbacks, loggingOn=logging_on)
-    return fmu
+    slave.instantiate(callbacks=callbacks, loggingOn=logging_on)
+    return LoadedFMU(slave, md, unzipdir, log, callbacks)
 
 
 _NO_START = object()
+
+
+class _CFunctions:
+    """``functions["fmi2DoStep"]``: the C function of a loaded FMU's shared library (fmpy has
+    set its argument and result types when it loaded the library)."""
+
+    def __init__(self, dll):
+        self._dll = dll
+
+    def __getitem__(self, name):
+        return getattr(self._dll, name)
 
 
 class _Component:
@@ -188,7 +230,7 @@ class _Component:
         self.log: list[str] = []
         self.path = Path(path)
         self.fmu = load_slave(path, role, self.log)
-        self.md = self.fmu._descent_md
+        self.md = self.fmu.model
         self.vars = {v.name: v for v in self.md.modelVariables}
         self.starts = {}
         for v in self.md.modelVariables:
@@ -249,12 +291,7 @@ class _Component:
                            + (f": {said}" if said else f" ({exc})")) from None
 
     def free(self):
-        try:
-            self.fmu.terminate()
-        except Exception:
-            pass
-        self.fmu.freeInstance()
-        shutil.rmtree(self.fmu._descent_unzipdir, ignore_errors=True)
+        self.fmu.free()
 
 
 class ClosedLoop:
@@ -308,6 +345,11 @@ class ClosedLoop:
         self.plant.free()
         self.ctrl.free()
 
+    def remove_files(self) -> None:
+        """Delete the folders the two FMUs were extracted to (files only: no FMU call)."""
+        self.plant.fmu.remove_files()
+        self.ctrl.fmu.remove_files()
+
     def __enter__(self):
         return self
 
@@ -342,7 +384,6 @@ class ClosedLoop:
         """
         if scheme not in ("gauss-seidel", "jacobi"):
             raise ValueError(f"unknown scheme {scheme!r}; use 'gauss-seidel' or 'jacobi'")
-        jacobi = scheme == "jacobi"
         w = self.wiring
         t_end = w.stop_time if stop_time is None else float(stop_time)
         h = w.step if step is None else float(step)
@@ -351,82 +392,62 @@ class ClosedLoop:
                              f"stop_time={t_end}")
         self._init(self.plant, plant_values or {}, 0.0, t_end)
         self._init(self.ctrl, controller_values or {}, 0.0, t_end)
+        rec = _Recording(self, record)
+        try:
+            k, stopped = self._fly(t_end, h, scheme == "jacobi", rec)
+        except Exception as exc:  # fmpy raises FMICallException on an error status
+            said = "; ".join(m.strip() for m in self.plant.log + self.ctrl.log if m.strip())
+            raise FMUError(f"{w.name}: an FMU call failed at t = {rec.t} s: " +
+                           (said or str(exc))) from None
+        return ClosedLoopResult(time=np.array(rec.times), outputs=rec.outputs(w),
+                                final=self._final_outputs(), stopped=stopped, steps=k,
+                                t_final=min(k * h, t_end), start=dict(plant_values or {}))
 
+    def _fly(self, t_end: float, h: float, jacobi: bool, rec: "_Recording") -> tuple:
+        """The stepping loop on the grid ``t_k = k h``: ``(steps taken, stopped)``."""
         pf, cf = self.plant.fmu, self.ctrl.fmu
         pc, cc = pf.component, cf.component
-        # fmpy's loaded FMI functions, called directly (its per-call wrapper costs ~1 us, as
-        # much as the call itself); statuses are checked below.
-        pfn, cfn = pf._functions, cf._functions
+        # the FMI functions of the shared libraries fmpy loaded, called directly (fmpy's
+        # per-call wrapper costs ~1 us, as much as the call itself); statuses are checked below
+        pfn, cfn = _CFunctions(pf.dll), _CFunctions(cf.dll)
         get_real_p, set_real_p, step_p = pfn["fmi2GetReal"], pfn["fmi2SetReal"], pfn["fmi2DoStep"]
         set_real_c, get_real_c, step_c = cfn["fmi2SetReal"], cfn["fmi2GetReal"], cfn["fmi2DoStep"]
         ny, nu = len(self._y), len(self._u)
         y_vr, x_vr, u_vr, pu_vr, y, u = (self._y_vr, self._x_vr, self._u_vr, self._pu_vr,
                                          self._y, self._u)
-        stop, stop_vr, stop_buf = w.stop, self._stop_vr, self._stop_buf
+        stop, stop_vr, stop_buf = self.wiring.stop, self._stop_vr, self._stop_buf
         get_stop = pfn[{"Real": "fmi2GetReal", "Integer": "fmi2GetInteger",
                         "Boolean": "fmi2GetBoolean"}.get(self._stop_type, "fmi2GetReal")]
-
-        rec_names = [n for n in self.record if not n.startswith("ctrl.")] if record else []
-        rec_vr = (ctypes.c_uint * len(rec_names))(*[self.plant.vr(n) for n in rec_names])
-        rec_buf = (ctypes.c_double * len(rec_names))()
-        times, rows_y, rows_u, rows_rec = [], [], [], []
-
+        record = rec.on
         n_steps = int(math.ceil(t_end / h - 1e-9))
         check = stop.check_every if stop is not None else 1
-        stopped = False
         k = 0
-        t = 0.0
-        try:
-            for k in range(n_steps + 1):
-                t = k * h
-                if jacobi and k > 0:
-                    st = (get_real_c(cc, u_vr, nu, u) | get_real_p(pc, y_vr, ny, y)
-                          | set_real_c(cc, x_vr, ny, y))
-                else:
-                    st = (get_real_p(pc, y_vr, ny, y) | set_real_c(cc, x_vr, ny, y)
-                          | get_real_c(cc, u_vr, nu, u))
-                st |= set_real_p(pc, pu_vr, nu, u)
-                if st > 1:
-                    raise FMUError(f"status {st} while exchanging values")
-                if record:
-                    times.append(t)
-                    rows_y.append(tuple(y))
-                    rows_u.append(tuple(u))
-                    if rec_names:
-                        get_real_p(pc, rec_vr, len(rec_names), rec_buf)
-                        rows_rec.append(tuple(rec_buf))
-                # A plant that freezes once its stop condition holds need not be read every
-                # step (Stop.check_every); every step when recording, so that the trajectory
-                # ends at the stop.
-                if stop_vr is not None and (record or k % check == 0 or k == n_steps):
-                    get_stop(pc, stop_vr, 1, stop_buf)
-                    if stop.holds(stop_buf[0]):
-                        stopped = True
-                        break
-                if k == n_steps:
-                    break
-                dt = min(h, t_end - t)
-                if step_p(pc, t, dt, fmi2True) > 1 or step_c(cc, t, dt, fmi2True) > 1:
-                    raise FMUError("doStep failed")
-        except Exception as exc:  # fmpy raises FMICallException on an error status
-            said = "; ".join(m.strip() for m in self.plant.log + self.ctrl.log if m.strip())
-            raise FMUError(f"{w.name}: an FMU call failed at t = {t} s: " +
-                           (said or str(exc))) from None
-        final = self._final_outputs()
-        outputs = {}
-        if record:
-            arr_y = np.array(rows_y).reshape(len(times), ny)
-            arr_u = np.array(rows_u).reshape(len(times), nu)
-            for i, (a, _) in enumerate(w.to_controller):
-                outputs[a] = arr_y[:, i]
-            for i, (a, _) in enumerate(w.to_plant):
-                outputs["ctrl." + a] = arr_u[:, i]
-            if rec_names:
-                arr = np.array(rows_rec)
-                for i, n in enumerate(rec_names):
-                    outputs[n] = arr[:, i]
-        return ClosedLoopResult(time=np.array(times), outputs=outputs, final=final,
-                                stopped=stopped, steps=k, t_final=min(k * h, t_end))
+        for k in range(n_steps + 1):
+            t = rec.t = k * h
+            if jacobi and k > 0:
+                st = (get_real_c(cc, u_vr, nu, u) | get_real_p(pc, y_vr, ny, y)
+                      | set_real_c(cc, x_vr, ny, y))
+            else:
+                st = (get_real_p(pc, y_vr, ny, y) | set_real_c(cc, x_vr, ny, y)
+                      | get_real_c(cc, u_vr, nu, u))
+            st |= set_real_p(pc, pu_vr, nu, u)
+            if st > 1:
+                raise FMUError(f"status {st} while exchanging values")
+            if record:
+                rec.sample(t, y, u, get_real_p, pc)
+            # A plant that freezes once its stop condition holds need not be read every
+            # step (Stop.check_every); every step when recording, so that the trajectory
+            # ends at the stop.
+            if stop_vr is not None and (record or k % check == 0 or k == n_steps):
+                get_stop(pc, stop_vr, 1, stop_buf)
+                if stop.holds(stop_buf[0]):
+                    return k, True
+            if k == n_steps:
+                break
+            dt = min(h, t_end - t)
+            if step_p(pc, t, dt, fmi2True) > 1 or step_c(cc, t, dt, fmi2True) > 1:
+                raise FMUError("doStep failed")
+        return k, False
 
     def _final_outputs(self) -> dict:
         """Every plant output, by name (Reals as float, Integers and Booleans as int)."""
@@ -439,3 +460,40 @@ class ClosedLoop:
                 conv = float if kind == "Real" else int
                 final.update((v.name, conv(x)) for v, x in zip(vs, vals))
         return final
+
+
+class _Recording:
+    """The trajectories of one run of a :class:`ClosedLoop` (empty unless ``on``)."""
+
+    def __init__(self, loop: ClosedLoop, on: bool):
+        self.on, self.t = on, 0.0
+        self.names = [n for n in loop.record if not n.startswith("ctrl.")] if on else []
+        self.vr = (ctypes.c_uint * len(self.names))(*[loop.plant.vr(n) for n in self.names])
+        self.buf = (ctypes.c_double * len(self.names))()
+        self.ny, self.nu = len(loop._y), len(loop._u)
+        self.times, self.rows_y, self.rows_u, self.rows_rec = [], [], [], []
+
+    def sample(self, t, y, u, get_real, component) -> None:
+        self.times.append(t)
+        self.rows_y.append(tuple(y))
+        self.rows_u.append(tuple(u))
+        if self.names:
+            get_real(component, self.vr, len(self.names), self.buf)
+            self.rows_rec.append(tuple(self.buf))
+
+    def outputs(self, w: Wiring) -> dict:
+        """The recorded signals by name (connected plant outputs, ``ctrl.<u>``, extras)."""
+        if not self.on:
+            return {}
+        out = {}
+        arr_y = np.array(self.rows_y).reshape(len(self.times), self.ny)
+        arr_u = np.array(self.rows_u).reshape(len(self.times), self.nu)
+        for i, (a, _) in enumerate(w.to_controller):
+            out[a] = arr_y[:, i]
+        for i, (a, _) in enumerate(w.to_plant):
+            out["ctrl." + a] = arr_u[:, i]
+        if self.names:
+            arr = np.array(self.rows_rec)
+            for i, n in enumerate(self.names):
+                out[n] = arr[:, i]
+        return out

@@ -1,90 +1,25 @@
-"""How a synthesis problem flies a candidate law: which closed-loop path, which flights.
-
-The evaluator flies every law from every initial state of its problem through
-:class:`synthesis.fmi.closed_loop.ClosedLoop` (the Python master stepping two FMUs).  A problem may carry a
-:class:`Runner` instead (``SynthesisProblem.runner``) choosing
-
-* the **container path** (``container=True``): the closed loop as one fmpy container FMU --
-  plant and controller inside, every plant output exposed, every parameter of both exposed --
-  extracted and instantiated once per process, reset per flight, one ``doStep`` over the whole
-  horizon (the container steps its components on the wiring's communication grid itself).  It is
-  the very FMU users get, and faster than the Python master for the same law
-  (``benchmarks/reentry_robust.py`` measures the ratio).  The plant freezes once its stop
-  condition holds, so the steps after it cost little and change nothing;
-* **racing** (``race``): the initial states are flown in stages; after each stage the problem's
-  ``proceed(results so far)`` decides whether the law flies the rest.  A law that is bad on the
-  first flights (e.g. the nominal one) does not fly the whole set; the problem's objective
-  function receives the shorter list and must rank such a law behind every fully flown one.
-
-Everything here pickles (worker processes, Dask): module-level callables only.
+"""The closed loop as one fmpy container FMU: plant and controller inside, every plant output
+exposed, every parameter of both exposed -- extracted and instantiated once per process, reset
+per flight, one ``doStep`` over the whole horizon (the container steps its components on the
+wiring's communication grid itself).  It is the very FMU users get, and faster than the Python
+master for the same law (``benchmarks/reentry_robust.py`` measures the ratio).  The plant
+freezes once its stop condition holds, so the steps after it cost little and change nothing.
 """
 from __future__ import annotations
 
 import math
 import shutil
 import tempfile
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from pathlib import Path
-from typing import Callable
 
 import numpy as np
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, ClosedLoopResult, FMUError, Wiring, load_slave
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring, load_slave
 
-__all__ = ["Runner", "Race", "ContainerLoop"]
-
-
-@dataclass(frozen=True)
-class Race:
-    """Fly the initial states in stages: after the first ``sizes[i]`` flights,
-    ``proceed(results)`` (a module-level function of the ClosedLoopResults so far) says whether
-    the law flies on."""
-
-    sizes: tuple
-    proceed: Callable
-
-    def __post_init__(self):
-        if any(int(s) < 1 for s in self.sizes):
-            raise ValueError(f"race stage sizes must be >= 1, got {self.sizes}")
-
-
-@dataclass(frozen=True)
-class Runner:
-    """A problem's choice of closed-loop path and flights (see the module docstring)."""
-
-    container: bool = False
-    race: Race | None = None
-
-    def load(self, wiring: Wiring, plant_fmu, controller_fmu, record=()):
-        """The loop the flights use, loaded once per process (recording needs the master)."""
-        if self.container and not record:
-            return ContainerLoop(wiring, plant_fmu, controller_fmu)
-        return ClosedLoop(wiring, plant_fmu, controller_fmu, record=record)
-
-    def flights(self, loop, problem, law) -> list:
-        """The ClosedLoopResults of ``law`` (all initial states, or fewer if a race stopped)."""
-        sv = law.start_values()
-        record = bool(problem.record)
-        states = problem.initial_states
-        stops = set(self.race.sizes) if self.race is not None else set()
-        results = []
-        for s in states:
-            results.append(loop.run(plant_values=s, controller_values=sv, record=record))
-            n = len(results)
-            if n in stops and n < len(states) and not self.race.proceed(results):
-                break
-        return results
-
+__all__ = ["ContainerLoop"]
 
 _NONE = object()
-
-
-class _Extracted:
-    """The container FMU instance under the names ClosedLoop uses for its components (code
-    that frees a loop's extracted files treats both loops alike)."""
-
-    def __init__(self, fmu):
-        self.fmu = fmu
 
 
 class ContainerLoop:
@@ -131,8 +66,7 @@ class ContainerLoop:
                                   logging_on=False)
         finally:             # extracted by now: the archive is not needed any more
             shutil.rmtree(self._tmp, ignore_errors=True)
-        self.plant = self.ctrl = _Extracted(self.fmu)
-        md = self.fmu._descent_md
+        md = self.fmu.model
         self._vars = {v.name: v for v in md.modelVariables}
         # after a reset every component holds its own start values (the container re-applies
         # none: built with starts=False); a run sets only what differs from them
@@ -153,14 +87,11 @@ class ContainerLoop:
         self._used = False
 
     def close(self) -> None:
-        try:
-            self.fmu.terminate()
-        except Exception:
-            pass
-        try:
-            self.fmu.freeInstance()
-        finally:
-            shutil.rmtree(self.fmu._descent_unzipdir, ignore_errors=True)
+        self.fmu.free()
+
+    def remove_files(self) -> None:
+        """Delete the extracted folder (files only: no FMU call)."""
+        self.fmu.remove_files()
 
     def __enter__(self):
         return self
@@ -223,4 +154,4 @@ class ContainerLoop:
         stopped = bool(stop is not None and stop.output in final and stop.holds(final[stop.output]))
         return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final, stopped=stopped,
                                 steps=int(math.ceil(t_end / self.wiring.step - 1e-9)),
-                                t_final=t_end)
+                                t_final=t_end, start=dict(plant_values or {}))

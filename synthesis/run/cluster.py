@@ -11,8 +11,11 @@ Worker loss costs nothing: the scheduler re-runs a lost task elsewhere (the eval
 a failed chunk once).  A joining worker receives the plugin when it registers and then takes
 tasks like the others (work stealing moves queued tasks to it).
 
-This module imports ``distributed``; :mod:`synthesis.run.evaluation` imports it only when a scheduler
-is used.
+Each worker flies the laws with one :class:`~synthesis.run.flights.LawFlyer` per problem, which
+the plugin keeps (:meth:`FmuShipment.flyer`): the FMUs are loaded once per worker, not per task.
+
+This module imports ``distributed``; :mod:`synthesis.run.backends` imports it only when a
+scheduler is used.
 """
 from __future__ import annotations
 
@@ -27,7 +30,7 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 from descent_fmus.synthesis.paths import FMUNotFoundError, require_fmu
 
-__all__ = ["FmuFile", "FmuShipment", "shipped_path", "start_local_cluster",
+__all__ = ["FmuFile", "FmuShipment", "shipped_path", "start_local_cluster", "fly_shipped",
            "CACHE_DIR"]
 
 #: Folder inside a worker's local directory holding shipped FMUs (``<hash>/<file name>``).
@@ -85,8 +88,31 @@ class FmuShipment(WorkerPlugin):
         self.name = f"descent-fmus-{digest[:16]}-{uuid.uuid4().hex[:8]}"
 
     def setup(self, worker):
-        for f in self.files:
-            materialise(f, worker.local_directory)
+        self.paths = tuple(str(materialise(f, worker.local_directory)) for f in self.files)
+        self.flyers = {}
+
+    def teardown(self, worker):
+        for flyer in self.flyers.values():
+            flyer.close()
+        self.flyers = {}
+
+    def flyer(self, problem):
+        """This worker's flyer of ``problem`` with the shipped FMUs (loaded on first use)."""
+        from descent_fmus.synthesis.run.flights import LawFlyer
+        key = (problem.name, problem.source)
+        if key not in self.flyers:
+            for path in self.paths:
+                if not Path(path).is_file():
+                    raise FMUNotFoundError(f"FMU {Path(path).name} was not shipped to this "
+                                           f"Dask worker")
+            self.flyers[key] = LawFlyer(problem, *self.paths)
+        return self.flyers[key]
+
+
+def fly_shipped(problem, plugin_name: str, laws):
+    """Dask task: fly ``laws`` with the FMUs the plugin ``plugin_name`` shipped to this worker;
+    ``(results, compute seconds)`` (per-law failures are results)."""
+    return get_worker().plugins[plugin_name].flyer(problem).fly_timed(laws)
 
 
 def shipped_path(ref) -> Path:

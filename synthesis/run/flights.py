@@ -1,0 +1,97 @@
+"""Flying laws where the FMUs are loaded: one :class:`LawFlyer` per process (or per Dask worker),
+whatever backend sends it the laws.
+
+A flyer loads its problem's closed loop once (the path the problem's runner chooses), flies a
+law over the problem's initial states and returns its :class:`~synthesis.problems.contract.Outcome`;
+an FMU error costs that law only (reported as its error text, never raised).  Loaded FMUs are
+freed, and their extracted folders removed, when the flyer closes -- at the latest at
+interpreter exit, while Python is still whole (a pythonfmu instance holds Python objects; left
+to the interpreter's teardown they would be released in no defined order).
+"""
+from __future__ import annotations
+
+import atexit
+import time
+import weakref
+
+from descent_fmus.synthesis.problems.contract import SynthesisProblem
+from descent_fmus.synthesis.run.signals import check_stop
+
+__all__ = ["LawFlyer", "Flown"]
+
+#: What flying one law gives: its Outcome, or None and the error text.
+Flown = tuple
+
+
+class LawFlyer:
+    """A problem's closed loop, loaded once, flying laws (see the module docstring).
+
+    Parameters
+    ----------
+    problem : SynthesisProblem
+    plant, controller : str
+        FMU files.
+    """
+
+    _alive: "weakref.WeakSet[LawFlyer]" = weakref.WeakSet()
+
+    def __init__(self, problem: SynthesisProblem, plant: str, controller: str):
+        self.problem = problem
+        self.fmus = (plant, controller)
+        self.loop = None
+        self.error = None
+        try:
+            self.loop = problem.runner.load(problem.wiring, plant, controller,
+                                            record=problem.record)
+        except Exception as exc:   # FMUs that do not load: every law fails with that error
+            self.error = f"{type(exc).__name__}: {exc}"
+        if not LawFlyer._alive:
+            atexit.register(LawFlyer.close_all)
+        LawFlyer._alive.add(self)
+
+    def fly(self, law) -> Flown:
+        """``(Outcome, None)``, or ``(None, error text)`` if an FMU call failed."""
+        if self.loop is None:
+            return None, self.error
+        try:
+            flights = self.problem.runner.flights(self.loop, self.problem, law)
+            return self.problem.evaluate(flights), None
+        except Exception as exc:  # an FMU error costs this law only
+            return None, f"{type(exc).__name__}: {exc}"
+
+    def fly_all(self, laws, stoppable: bool = False) -> list:
+        """:meth:`fly` of each law; with ``stoppable`` a requested stop
+        (:func:`synthesis.run.signals.check_stop`) ends the batch between two laws."""
+        out = []
+        for law in laws:
+            if stoppable:
+                check_stop()
+            out.append(self.fly(law))
+        return out
+
+    def fly_timed(self, laws) -> tuple:
+        """``(results, seconds)``: the chunk's results and its compute time (the backends'
+        measure of the cost of a law)."""
+        t0 = time.perf_counter()
+        out = self.fly_all(laws)
+        return out, time.perf_counter() - t0
+
+    def remove_files(self) -> None:
+        """Delete the extracted FMU folders (files only: no FMU call; safe in a signal
+        handler)."""
+        if self.loop is not None:
+            self.loop.remove_files()
+
+    def close(self) -> None:
+        loop, self.loop = self.loop, None
+        LawFlyer._alive.discard(self)
+        if loop is not None:
+            try:
+                loop.close()
+            except Exception:       # an FMU that cannot be freed: its folder still goes
+                loop.remove_files()
+
+    @classmethod
+    def close_all(cls) -> None:
+        for flyer in list(cls._alive):
+            flyer.close()

@@ -1,0 +1,85 @@
+"""The folder of a synthesis run: what was asked, the checkpoint, and the refusal to mix runs.
+
+* ``run.json`` -- what was asked (problem, its source, method, recipe); a different run refuses
+  the folder, and ``--resume`` continues only the same run;
+* ``checkpoint.json`` -- the run loop's state at the last boundary (the method's state, the
+  archive, the flights spent); written atomically, so a killed run never leaves a half-written
+  file and resumes from the last one.
+"""
+from __future__ import annotations
+
+import json
+import os
+from dataclasses import asdict
+from pathlib import Path
+
+__all__ = ["RunDirError", "RunFolder", "write_json", "run_spec", "RUN_FILE", "CHECKPOINT"]
+
+RUN_FILE, CHECKPOINT = "run.json", "checkpoint.json"
+
+
+class RunDirError(ValueError):
+    """The output directory holds a different run (or no run to resume)."""
+
+
+def write_json(path: Path, data) -> None:
+    """Write ``data`` as JSON atomically (a temporary file renamed over the target)."""
+    tmp = path.with_suffix(path.suffix + ".tmp")
+    tmp.write_text(json.dumps(data, indent=1, default=float))
+    os.replace(tmp, path)
+
+
+def run_spec(problem, method: str) -> dict:
+    """What identifies a run: the problem and its source, the method and the whole recipe."""
+    return {"problem": problem.name, "source": problem.source, "method": method,
+            "seed": problem.budget.seed, "budget": asdict(problem.budget),
+            "ga": asdict(problem.ga), "refine": asdict(problem.refine),
+            "operations": [list(problem.unary), list(problem.binary)],
+            "q_bits": list(problem.q_bits)}
+
+
+# the fields a resumed run may change: the budget's (a longer run of the same search)
+_SAME = ("problem", "source", "method", "seed", "ga", "refine", "operations", "q_bits")
+
+
+class RunFolder:
+    """A run's output folder (see the module docstring)."""
+
+    def __init__(self, out):
+        self.path = Path(out)
+        self.run_file, self.checkpoint = self.path / RUN_FILE, self.path / CHECKPOINT
+
+    def open(self, spec: dict, resume: bool) -> dict | None:
+        """Check the folder against ``spec`` and prepare it; the checkpoint to resume from
+        (None for a fresh run).
+
+        Raises
+        ------
+        RunDirError
+            ``resume`` without a run, a different run, or a fresh run into a folder that
+            holds anything (nothing is overwritten).
+        """
+        if resume:
+            if not self.run_file.exists() or not self.checkpoint.exists():
+                raise RunDirError(f"{self.path} holds no run to resume (no {RUN_FILE}/"
+                                  f"{CHECKPOINT})")
+            old = json.loads(self.run_file.read_text())
+            if any(old.get(k) != spec.get(k) for k in _SAME):
+                raise RunDirError(f"{self.path} holds a different run ({old.get('problem')}, "
+                                  f"method {old.get('method')}, seed {old.get('seed')}); resume "
+                                  f"it with the same options or choose another --out")
+            write_json(self.run_file, spec)        # a larger budget is recorded
+            return json.loads(self.checkpoint.read_text())
+        if self.path.exists() and any(self.path.iterdir()):
+            if self.run_file.exists():
+                raise RunDirError(f"{self.path} already holds a run: continue it with --resume "
+                                  f"or choose another --out (nothing was overwritten)")
+            raise RunDirError(f"{self.path} is not empty and holds no descent-fmus run; choose "
+                              f"another --out (nothing was overwritten)")
+        self.path.mkdir(parents=True, exist_ok=True)
+        write_json(self.run_file, spec)
+        return None
+
+    def save(self, state: dict) -> None:
+        """Write the checkpoint (atomically)."""
+        write_json(self.checkpoint, state)

@@ -1,0 +1,156 @@
+"""What a finished synthesis run writes: the Pareto set, the summary, the figure, the laws.
+
+* ``pareto.csv``, ``pareto.json``, ``pareto.png`` -- the run's archive, one law per row
+  (objectives, constraint values and violation, the problem's reported values, the readable
+  formula; ``pareto.json`` also the law and what the method reported with it);
+* ``summary.json`` -- the report: counts, rates, feasibility, the problem's own report fields;
+* ``laws/<k>/`` -- per Pareto law (:mod:`synthesis.fmi.law_files`): ``law.json`` (with the
+  readable form), ``law.h``/``law.c`` and the law FMU (native C where a compiler exists), and
+  when asked the closed-loop container FMU and its SSP file.
+"""
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu, readable_text
+from descent_fmus.synthesis.run.folder import write_json
+from descent_fmus.synthesis.run.guard import check_export_space
+
+__all__ = ["write_results", "export_law", "plot_front", "feasibility"]
+
+
+def export_law(problem, law, fmu_dir: Path, dest: Path, description: str = "",
+               law_fmu: str = "auto", closed_loop: bool = True, identifier: str | None = None,
+               extra: dict | None = None) -> dict:
+    """A law as files (:func:`synthesis.fmi.law_files.export_law_files`): ``law.json`` with its
+    readable form, ``law.h``/``law.c``, the law FMU (native where a C compiler exists, else the
+    pythonfmu controller with the law as defaults) and, with ``closed_loop``, the closed-loop
+    FMU and SSP around that law FMU.
+
+    The plant parameters the problem sets per initial state stay parameters of the closed-loop
+    FMU, so a law of a problem with several initial states can be flown from each of them.
+    """
+    from descent_fmus.synthesis.fmi.law_files import export_law_files
+    out = export_law_files(law, dest, law_fmu=law_fmu, fmu_dir=fmu_dir, identifier=identifier,
+                           description=description, problem=problem, closed_loop=closed_loop,
+                           extra=dict({"problem": problem.name}, **(extra or {})))
+    out.pop("note")
+    return out
+
+
+def _rows(problem, front, extras) -> list:
+    rows = []
+    for k, ((cand, f, cv), ex) in enumerate(zip(front, extras)):
+        row = {"k": k}
+        row.update({n: float(v) for n, v in zip(problem.objective_names, f)})
+        if problem.constraints:
+            row["violation"] = float(cv)
+            row["feasible"] = cv == 0.0
+        row.update({n: v for n, v in ex.items() if isinstance(v, (int, float, bool))})
+        row["formula"] = cand.law.formula(6)
+        row["readable"] = readable_text(cand.law)
+        rows.append(row)
+    return rows
+
+
+def feasibility(problem, evaluator) -> dict:
+    """How many evaluated laws met the constraints, and why the best infeasible one did not
+    (its constraint values against their bounds)."""
+    if not problem.constraints:
+        return {}
+    outcomes = list(evaluator.cache.values())
+    bad = [o for o in outcomes if o.cv > 0]
+    out = {"evaluated": len(outcomes), "infeasible": len(bad)}
+    if bad:
+        best = min(bad, key=lambda o: (o.cv,) + tuple(o.f))
+        out["best_infeasible"] = {
+            "violation": best.cv,
+            "constraints": {c.name: {"value": best.extras.get(c.name), "bound": c.bound,
+                                     "sense": c.sense, "over_states": c.over_states}
+                            for c in problem.constraints}}
+    return out
+
+
+def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
+                  reference: bool) -> dict:
+    """Write the Pareto set (the archive's items ``(Candidate, f, cv)``), its figure and, as
+    asked by ``export`` (True, False or a :class:`~synthesis.fmi.law_files.LawExport`), the law
+    files; the summary fields."""
+    front = archive.sorted()
+    laws = [cand.law for cand, _, _ in front]
+    rows = _rows(problem, front, evaluator.evaluate(laws).extras)
+    fields = list(dict.fromkeys(key for r in rows for key in r))
+    with open(out / "pareto.csv", "w", newline="") as fh:
+        wr = csv.DictWriter(fh, fieldnames=fields)
+        wr.writeheader()
+        wr.writerows(rows)
+
+    def pareto_json():
+        write_json(out / "pareto.json", [dict(r, law=cand.law.to_dict(), **dict(cand.info))
+                                         for r, (cand, _, _) in zip(rows, front)])
+
+    pareto_json()
+    basic = evaluator.evaluate([problem.basic()])
+    names = problem.objective_names
+    summary = {"problem": problem.name, "pareto_size": len(rows),
+               "basic_law": dict(zip(names, map(float, basic.F[0])))}
+    if problem.constraints:
+        summary["basic_law"]["violation"] = float(basic.cv[0])
+        summary["feasibility"] = feasibility(problem, evaluator)
+    summary.update(problem.report.summary(rows, out, reference))
+    plot_front(problem, rows, summary, out / "pareto.png")
+    what = LawExport.of(export)
+    if what is not None:
+        _export_laws(problem, rows, laws, what, out, fmu_dir, summary)
+        pareto_json()
+    summary["pareto"] = rows
+    return summary
+
+
+def _export_laws(problem, rows, laws, what, out, fmu_dir, summary) -> None:
+    kind, note = choose_law_fmu(what.law_fmu)
+    check_export_space(out, problem, fmu_dir, len(rows), what.closed_loops, law_fmu=kind)
+    summary.update(law_fmus=kind, **({"law_fmu_note": note} if note else {}))
+    stem = problem.wiring.name.removesuffix("ClosedLoop")
+    for r, law in zip(rows, laws):
+        r.update(export_law(problem, law, fmu_dir, out / "laws" / str(r["k"]),
+                            description=f"{problem.name} Pareto law {r['k']}",
+                            law_fmu=kind, closed_loop=what.closed_loops,
+                            identifier=f"{stem}Law{r['k']}",
+                            extra={"k": r["k"], "objectives": {
+                                n: r[n] for n in problem.objective_names}}))
+
+
+def plot_front(problem, rows, summary, path: Path) -> None:
+    """pareto.png: the front, the basic law and (if the report gives one) a reference value of
+    objective 1 (``summary["reference"] = {"value": ..., "label": ...}``)."""
+    import matplotlib.pyplot as plt
+
+    from descent_fmus.synthesis.plotting import save_figure
+    names = problem.objective_names
+    if len(names) != 2 or not rows:
+        return
+    f1 = np.array([r[names[0]] for r in rows])
+    f2 = np.array([r[names[1]] for r in rows])
+    ok = f2 < problem.penalty[1] / 4
+    fig, ax = plt.subplots(figsize=(7, 5))
+    ax.plot(f1[ok], f2[ok], "o", ms=4, label="Pareto set (synthesised laws)")
+    b = summary["basic_law"]
+    ax.plot(b[names[0]], b[names[1]], "s", color="C3", label="basic law (start)")
+    ref = summary.get("reference")
+    if ref:
+        ax.axvline(ref["value"], color="k", ls="--", lw=1,
+                   label=f"{ref['label']} {names[0]} = {ref['value']:.4g}")
+    ax.set_xlabel(problem.labels[0])
+    ax.set_ylabel(problem.labels[1])
+    ax.set_yscale("symlog", linthresh=max(1e-9, float(np.min(np.abs(f2[ok])))
+                  if ok.any() and np.min(np.abs(f2[ok])) > 0 else 1.0))
+    if ok.any() and np.min(f2[ok]) >= 0 and b[names[1]] >= 0:
+        ax.set_ylim(bottom=0)            # a non-negative objective: no empty negative decades
+        ax.set_ylim(top=10 ** (np.log10(max(np.max(f2[ok]), b[names[1]], 1e-9)) + 0.5))
+    ax.legend(loc="center right")
+    ax.set_title(f"{problem.name}: Pareto front ({len(rows)} laws)")
+    save_figure(fig, path, [ax], dpi=110)
