@@ -22,7 +22,6 @@ import argparse
 import os
 import shlex
 import sys
-from pathlib import Path
 
 from descent_fmus.synthesis.cli.common import CliError, OneLineParser, add_common_options, emit
 
@@ -38,7 +37,7 @@ def build_parser() -> argparse.ArgumentParser:
                             parser_class=OneLineParser)
     from descent_fmus.synthesis.cli.synthesize import add_synthesize_command
     add_synthesize_command(sub)
-    from descent_fmus.synthesis.fmi.law_files import add_export_law_command
+    from descent_fmus.synthesis.cli.export_law import add_export_law_command
     add_export_law_command(sub)
     from descent_fmus.synthesis.cli.fine_output import add_fine_output_command
     add_fine_output_command(sub)
