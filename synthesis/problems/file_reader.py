@@ -3,9 +3,11 @@ checks of the FMUs it names (:mod:`synthesis.problems.files` builds the problem)
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field
 from pathlib import Path
 
-__all__ = ["ProblemFileError", "Reader", "find_fmu", "model_description"]
+__all__ = ["ProblemFileError", "Reader", "find_fmu", "model_description", "read_settings",
+           "PlantInfo", "ControllerInfo"]
 
 
 class ProblemFileError(ValueError):
@@ -134,3 +136,44 @@ def read_settings(reader: Reader, table: dict, key: str, current, extra=()):
         return replace_settings(current, changes, f"{key}.")
     except SettingError as exc:
         raise reader.error(exc.key, str(exc).split(": ", 1)[1]) from None
+
+
+@dataclass
+class PlantInfo:
+    """What the file's plant FMU offers (read from its model description)."""
+
+    path: Path
+    md: object
+    vars: dict = field(default_factory=dict)
+
+    @property
+    def outputs(self) -> set:
+        return {n for n, v in self.vars.items() if v.causality == "output"}
+
+    @property
+    def real_outputs(self) -> set:
+        return {n for n in self.outputs if self.vars[n].type == "Real"}
+
+    @property
+    def inputs(self) -> set:
+        return {n for n, v in self.vars.items() if v.causality == "input"}
+
+    @property
+    def settable(self) -> set:
+        return {n for n, v in self.vars.items() if v.causality in ("parameter", "input")}
+
+
+@dataclass
+class ControllerInfo:
+    """The law's inputs (plant outputs, scales, offsets) and outputs (plant inputs, bounds)."""
+
+    path: Path
+    inputs: list
+    scale: list
+    offset: list
+    outputs: list
+    bounds: list
+
+    @property
+    def law_signals(self) -> dict:
+        return {f"u{k + 1}": f"u[{k + 1}]" for k in range(len(self.outputs))}

@@ -100,7 +100,6 @@ from __future__ import annotations
 import hashlib
 import math
 import re
-from dataclasses import dataclass, field
 from pathlib import Path
 
 from descent_fmus.synthesis.fmi.closed_loop import Stop, Wiring
@@ -108,7 +107,8 @@ from descent_fmus.synthesis.problems.contract import AGGREGATES, Constraint, Syn
 from descent_fmus.synthesis.problems.expressions import Expression, ExpressionError
 from descent_fmus.synthesis.problems.file_functions import (FileObjective, FileObjectives,
                                                             FlightExpression)
-from descent_fmus.synthesis.problems.file_reader import (ProblemFileError, Reader, find_fmu,
+from descent_fmus.synthesis.problems.file_reader import (ControllerInfo, PlantInfo,
+                                                         ProblemFileError, Reader, find_fmu,
                                                          model_description)
 from descent_fmus.synthesis.problems.file_recipe import read_baselines, read_recipe, read_target
 from descent_fmus.synthesis.problems.runner import Runner
@@ -135,47 +135,6 @@ _KEYS = {
     "constraints": {"name", "flight", "sense", "bound", "over_states", "scale"},
     "basic_law": {"gains", "bias", "size", "file", "psi", "q", "outputs"},
 }
-
-
-@dataclass
-class _Plant:
-    """What the file's plant FMU offers (read from its model description)."""
-
-    path: Path
-    md: object
-    vars: dict = field(default_factory=dict)
-
-    @property
-    def outputs(self) -> set:
-        return {n for n, v in self.vars.items() if v.causality == "output"}
-
-    @property
-    def real_outputs(self) -> set:
-        return {n for n in self.outputs if self.vars[n].type == "Real"}
-
-    @property
-    def inputs(self) -> set:
-        return {n for n, v in self.vars.items() if v.causality == "input"}
-
-    @property
-    def settable(self) -> set:
-        return {n for n, v in self.vars.items() if v.causality in ("parameter", "input")}
-
-
-@dataclass
-class _Controller:
-    """The law's inputs (plant outputs, scales, offsets) and outputs (plant inputs, bounds)."""
-
-    path: Path
-    inputs: list
-    scale: list
-    offset: list
-    outputs: list
-    bounds: list
-
-    @property
-    def law_signals(self) -> dict:
-        return {f"u{k + 1}": f"u[{k + 1}]" for k in range(len(self.outputs))}
 
 
 def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
@@ -248,7 +207,7 @@ def _problem_table(rd: Reader, data, path: Path) -> tuple:
     return name, description
 
 
-def _settable_values(rd: Reader, plant: _Plant, d: dict, key: str) -> dict:
+def _settable_values(rd: Reader, plant: PlantInfo, d: dict, key: str) -> dict:
     out = {}
     for k in d:
         if k not in plant.settable:
@@ -263,13 +222,13 @@ def _plant_table(rd: Reader, data, fmu_dir) -> tuple:
     rd.keys(table, "plant", _KEYS["plant"])
     path = find_fmu(rd, "plant.fmu", rd.string(table, "plant", "fmu"), fmu_dir)
     md = model_description(rd, "plant.fmu", path)
-    plant = _Plant(path, md, {v.name: v for v in md.modelVariables})
+    plant = PlantInfo(path, md, {v.name: v for v in md.modelVariables})
     fixed = _settable_values(rd, plant, rd.table(table, "plant.parameters", required=False),
                              "plant.parameters")
     return plant, fixed
 
 
-def _controller_table(rd: Reader, data, plant: _Plant, fmu_dir) -> _Controller:
+def _controller_table(rd: Reader, data, plant: PlantInfo, fmu_dir) -> ControllerInfo:
     from descent_fmus.models.controllers.network_operator import NU_MAX, NX_MAX
     table = rd.table(data, "controller")
     rd.keys(table, "controller", _KEYS["controller"])
@@ -280,7 +239,7 @@ def _controller_table(rd: Reader, data, plant: _Plant, fmu_dir) -> _Controller:
         if not path.is_file():
             raise rd.error("controller.fmu", f"the generic controller {path} is not built: run "
                                              f"python build_fmus.py (or --fmus DIR)")
-    ctrl = _Controller(path, [], [], [], [], [])
+    ctrl = ControllerInfo(path, [], [], [], [], [])
     name = plant.md.modelName
     for key, item in rd.items(table, "controller.inputs", _KEYS["controller.inputs"]):
         o = rd.string(item, key, "output")
@@ -309,7 +268,7 @@ def _controller_table(rd: Reader, data, plant: _Plant, fmu_dir) -> _Controller:
     return ctrl
 
 
-def _simulation_table(rd: Reader, data, plant: _Plant) -> tuple:
+def _simulation_table(rd: Reader, data, plant: PlantInfo) -> tuple:
     sim = rd.table(data, "simulation")
     rd.keys(sim, "simulation", _KEYS["simulation"])
     step = float(rd.number(sim, "simulation", "step", positive=True))
@@ -335,7 +294,7 @@ def _simulation_table(rd: Reader, data, plant: _Plant) -> tuple:
     return step, stop_time, stop, Runner(container=path == "container")
 
 
-def _initial_states(rd: Reader, data, plant: _Plant) -> list:
+def _initial_states(rd: Reader, data, plant: PlantInfo) -> list:
     init = rd.table(data, "initial_states")
     rd.keys(init, "initial_states", _KEYS["initial_states"])
     if ("states" in init) == ("box" in init):
@@ -353,7 +312,7 @@ def _initial_states(rd: Reader, data, plant: _Plant) -> list:
     return _sampled_states(rd, init, plant)
 
 
-def _sampled_states(rd: Reader, init: dict, plant: _Plant) -> list:
+def _sampled_states(rd: Reader, init: dict, plant: PlantInfo) -> list:
     from descent_fmus.synthesis.problems.dispersion import METHODS, Box
     box = rd.table(init, "initial_states.box")
     if not box:
@@ -380,7 +339,7 @@ def _sampled_states(rd: Reader, init: dict, plant: _Plant) -> list:
     return Box.from_bounds(ranges).sample(samples, seed, sampler)
 
 
-def _flight_expression(rd: Reader, item: dict, key: str, plant: _Plant, ctrl: _Controller,
+def _flight_expression(rd: Reader, item: dict, key: str, plant: PlantInfo, ctrl: ControllerInfo,
                        signals, stop) -> FlightExpression:
     try:
         expr = Expression(rd.string(item, key, "flight"), signals)
@@ -441,7 +400,7 @@ def _constraints(rd: Reader, data, plant, ctrl, signals, stop) -> list:
     return out
 
 
-def _record(exprs, ctrl: _Controller) -> tuple:
+def _record(exprs, ctrl: ControllerInfo) -> tuple:
     """The plant outputs the expressions need at every communication point (none when only
     final values are read: the fastest flights); law outputs switch recording on."""
     law = ctrl.law_signals
@@ -452,7 +411,7 @@ def _record(exprs, ctrl: _Controller) -> tuple:
     return tuple(record)
 
 
-def _basic_law(rd: Reader, data, path: Path, ctrl: _Controller):
+def _basic_law(rd: Reader, data, path: Path, ctrl: ControllerInfo):
     from descent_fmus.models.controllers.network_operator import NQ_MAX
     bl = rd.table(data, "basic_law")
     rd.keys(bl, "basic_law", _KEYS["basic_law"])
@@ -467,7 +426,7 @@ def _basic_law(rd: Reader, data, path: Path, ctrl: _Controller):
     return law
 
 
-def _law(rd: Reader, table: dict, kind: str, path: Path, ctrl: _Controller, key: str,
+def _law(rd: Reader, table: dict, kind: str, path: Path, ctrl: ControllerInfo, key: str,
          scale=None, offset=None):
     """A law of the controller's inputs and outputs from ``table`` (gains, file or psi)."""
     from descent_fmus.synthesis.methods.law import LawFileError, MatrixError, NetworkOperator
@@ -493,7 +452,7 @@ def _law(rd: Reader, table: dict, kind: str, path: Path, ctrl: _Controller, key:
     return law
 
 
-def _wiring(name, description, path, plant: _Plant, ctrl: _Controller, step, stop_time,
+def _wiring(name, description, path, plant: PlantInfo, ctrl: ControllerInfo, step, stop_time,
             stop) -> Wiring:
     outs = ctrl.outputs
     return Wiring(name=f"{re.sub(r'[^A-Za-z0-9_]', '_', name)}ClosedLoop",
