@@ -39,7 +39,8 @@ def parameter_section(stem: str) -> str:
             line = "#" + line                          # "## X.fmu" -> "### X.fmu"
         elif line.startswith("| `"):
             name, default, unit, desc = line.split(" | ", 3)
-            line = " | ".join((name, default, unit, _cell(desc[:-2]))) + " |"
+            desc = desc[:-2].replace("\\|", "|")       # info escapes "|" for plain Markdown
+            line = " | ".join((name, default, unit, _cell(desc))) + " |"
         out.append(line)
     return "\n".join(out).strip("\n")
 

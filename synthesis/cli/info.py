@@ -22,7 +22,8 @@ def parameter_markdown(params_class) -> str:
     lines = ["| parameter | default | unit | description |", "| --- | --- | --- | --- |"]
     for name, default, unit, desc in parameter_table(params_class):
         value = f"{default:g}" if isinstance(default, (int, float)) else str(default)
-        lines.append(f"| `{name}` | {value} | {unit} | {desc} |")
+        cells = (f"`{name}`", value, unit, desc)
+        lines.append("| " + " | ".join(str(c).replace("|", "\\|") for c in cells) + " |")
     return "\n".join(lines)
 
 
