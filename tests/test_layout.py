@@ -145,3 +145,82 @@ def test_library_code_never_chooses_the_matplotlib_backend():
     for folder in ("models", "synthesis"):
         for path in (ROOT / folder).rglob("*.py"):
             assert "matplotlib.use(" not in path.read_text(), path
+
+
+# -- the core grouped by job, small modules and functions -----------------------------------------
+#: The folders of synthesis/ and what each may import from the package (a layer imports only
+#: the layers below it).  models/ is the ground floor; fmi/ knows FMUs, not problems; problems/
+#: knows the FMI layer and the methods' types; run/ flies problems with methods; cli/ and the
+#: systems sit on top.
+LAYERS = {
+    "methods": {"models", "methods"},
+    "fmi": {"models", "methods", "fmi", "paths", "plotting"},
+    "problems": {"models", "methods", "fmi", "problems", "paths"},
+    "run": {"models", "methods", "fmi", "problems", "run", "paths", "plotting"},
+}
+
+
+def _layer(module: str) -> str:
+    parts = module.split(".")
+    if parts[1] == "models":
+        return "models"
+    return parts[2] if len(parts) > 2 else "synthesis"
+
+
+def test_synthesis_top_level_is_a_handful_of_modules_and_job_folders():
+    top = sorted(p.stem for p in (ROOT / "synthesis").glob("*.py"))
+    assert top == ["__init__", "paths", "plotting", "registry"], top
+    folders = sorted(p.name for p in (ROOT / "synthesis").iterdir()
+                     if (p / "__init__.py").is_file())
+    assert folders == ["cli", "fmi", "methods", "problems", "run", "systems"], folders
+
+
+def test_each_job_folder_imports_only_the_layers_below_it():
+    modules = _modules()
+    bad = []
+    for name, path in modules.items():
+        layer = _layer(name)
+        if layer not in LAYERS:
+            continue
+        for dep in _imports(path, name, modules):
+            dep_layer = _layer(dep)
+            if dep_layer not in LAYERS[layer] and dep_layer != "synthesis":
+                bad.append(f"{name} imports {dep}")
+            elif dep_layer == "synthesis" and dep.rsplit(".", 1)[-1] not in LAYERS[layer]:
+                bad.append(f"{name} imports {dep}")
+    assert not bad, "\n".join(bad)
+
+
+def test_methods_know_no_system():
+    # the general methods hold no system's numbers: no import of a system or of a plant model
+    # (only the network-operator operation table, the fixed-step integrators and RK4 helpers)
+    allowed = {"descent_fmus.models.controllers.network_operator",
+               "descent_fmus.models.integrators", "descent_fmus.models.rk4_input"}
+    modules = _modules()
+    for name, path in modules.items():
+        if ".synthesis.methods." in name:
+            deps = {d for d in _imports(path, name, modules) if d.startswith("descent_fmus.models")}
+            assert deps <= allowed, (name, deps - allowed)
+
+
+#: Functions allowed beyond 80 lines: none today (a table, such as an operation list, would be
+#: named here with its reason).
+LONG_FUNCTIONS: dict = {}
+
+
+def test_no_module_over_500_lines_and_no_function_over_80():
+    long_modules, long_functions = [], []
+    for folder in ("models", "synthesis"):
+        for path in (ROOT / folder).rglob("*.py"):
+            text = path.read_text()
+            n = len(text.splitlines())
+            if n > 500:
+                long_modules.append(f"{path.relative_to(ROOT)}: {n} lines")
+            for node in ast.walk(ast.parse(text)):
+                if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    size = node.end_lineno - node.lineno + 1
+                    key = f"{path.relative_to(ROOT)}:{node.name}"
+                    if size > 80 and key not in LONG_FUNCTIONS:
+                        long_functions.append(f"{key}: {size} lines")
+    assert not long_modules, long_modules
+    assert not long_functions, long_functions
