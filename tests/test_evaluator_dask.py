@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 from descent_fmus.synthesis.run.evaluation import Evaluator
-from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 

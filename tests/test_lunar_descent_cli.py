@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 from descent_fmus.synthesis.systems.lunar_descent.problems import LUNAR_DESCENT_RECIPE
 

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import pytest
 
-from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.fmi.other_tools import EcosUnavailable, run_ecos
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.systems.reentry.flight import load_loop

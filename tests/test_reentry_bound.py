@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from descent_fmus.models.reentry import ReentryParams, downrange
-from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.systems.reentry.bound import (Program, ProgramFlight, fly_program,
                                                           optimize_open_loop, replay_program)
 from descent_fmus.synthesis.systems.reentry.robustness import (dispersion_samples,

@@ -103,7 +103,6 @@ def test_true_peak_of_a_sampled_flight_matches_solve_ivp(fmu_dir):
     # over time of the flight that happens, both one-sided loads at every control change
     # included.  Oracle: DOP853 (rtol 1e-12) re-integration with the same held controls, the
     # load on a 0.01 s grid of every hold interval plus both ends of it (the jumps).
-    from descent_fmus.synthesis.methods.law import NetworkOperator
     from descent_fmus.synthesis.systems.reentry.flight import fly
     f = fly(paper_basic_law(), fmu_dir=fmu_dir, record=True)
     u = f.result["ctrl.u[1]"]
