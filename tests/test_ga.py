@@ -59,8 +59,8 @@ def zdt1(laws):
 
 def run(ga, objectives, archive=None, on_boundary=None):
     """The package's one run loop with a Python objective function (no FMU)."""
-    def evaluate(cands):
-        F = objectives([c.law for c in cands])
+    def evaluate(laws):
+        F = objectives(laws)
         return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
     return RunLoop(ga, evaluate, archive, on_boundary=on_boundary).run()
 

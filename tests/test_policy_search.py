@@ -67,8 +67,8 @@ def test_target_scalar_and_feasibility():
 
 def run(search, objectives, evaluations):
     """The package's one run loop until ``evaluations`` candidates in all (whole generations)."""
-    def evaluate(cands):
-        F = np.atleast_2d(objectives([c.law for c in cands]))
+    def evaluate(laws):
+        F = np.atleast_2d(objectives(laws))
         return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
     RunLoop(search, evaluate, flights=evaluations, flights_done=search.evaluations).run()
     return search

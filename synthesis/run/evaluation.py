@@ -135,37 +135,31 @@ class Evaluator:
         """
         check_stop()
         keys = [law_key(law) for law in laws]
-        todo, seen = [], set()
-        for k, law in zip(keys, laws):
-            if k not in self.cache and k not in seen:
-                seen.add(k)
-                todo.append((k, law))
+        todo = list({k: law for k, law in zip(keys, laws) if k not in self.cache}.items())
         if todo:
-            self._fly(todo)
+            results = self.backend.fly([law for _, law in todo])
+            retry = [i for i, (o, _) in enumerate(results) if o is None]
+            if retry:   # retried once (a dead worker or a transient FMU error) ...
+                for i, r in zip(retry, self.backend.fly([todo[i][1] for i in retry])):
+                    results[i] = r
+            self._judge([err for o, err in results if o is None], len(todo))
+            for (k, _), (outcome, err) in zip(todo, results):
+                if outcome is None:   # ... then penalised
+                    self.failures += 1
+                    self.first_error = self.first_error or err
+                    outcome = self.problem.failed({"error": err or "unknown error"})
+                self.cache[k] = outcome
+            self.simulated += len(todo)
         rows = [self.cache[k] for k in keys]
         F = np.array([o.f for o in rows], float).reshape(len(laws),
                                                          len(self.problem.objective_names))
         return Evaluation(F, np.array([o.cv for o in rows], float), [o.extras for o in rows],
                           len(todo))
 
-    def _fly(self, todo) -> None:
-        results = self.backend.fly([law for _, law in todo])
-        retry = [i for i, (o, _) in enumerate(results) if o is None]
-        if retry:   # retried once (a dead worker or a transient FMU error) ...
-            again = self.backend.fly([todo[i][1] for i in retry])
-            for i, r in zip(retry, again):
-                results[i] = r
-        errors = [err for o, err in results if o is None]
-        if self.fail_loudly and len(todo) >= self.JUDGED_BATCH:
+    def _judge(self, errors: list, batch: int) -> None:
+        """Raise :class:`SystematicFailure` if this batch's failures are the setup's fault."""
+        if self.fail_loudly and batch >= self.JUDGED_BATCH:
             limit = 0.5 if self._judged == 0 else 1.0
             self._judged += 1
-            if errors and (len(errors) == len(todo) or len(errors) > limit * len(todo)):
-                raise SystematicFailure(len(errors), len(todo), errors[0] or "unknown error")
-        for (k, _), (outcome, err) in zip(todo, results):
-            if outcome is None:   # ... then penalised
-                self.failures += 1
-                if self.first_error is None:
-                    self.first_error = err
-                outcome = self.problem.failed({"error": err or "unknown error"})
-            self.cache[k] = outcome
-        self.simulated += len(todo)
+            if errors and (len(errors) == batch or len(errors) > limit * batch):
+                raise SystematicFailure(len(errors), batch, errors[0] or "unknown error")

@@ -43,7 +43,8 @@ class RunLoop:
     ----------
     method : Method
     evaluate : callable
-        ``evaluate(candidates) -> Evaluation`` (``F``, ``cv``, ``extras``, ``flown``).
+        ``evaluate(laws) -> Evaluation`` (``F``, ``cv``, ``extras``, ``flown``): the laws of
+        the method's candidates (e.g. :meth:`synthesis.run.evaluation.Evaluator.evaluate`).
     archive : ParetoArchive, optional
     flights : int
         Flight budget (laws flown, counted by ``Evaluation.flown``); 0 = none.
@@ -81,7 +82,7 @@ class RunLoop:
     def step(self) -> None:
         """One ask / evaluate / tell, the candidates offered to the archive."""
         cands: list[Candidate] = self.method.ask()
-        ev = self.evaluate(cands)
+        ev = self.evaluate([c.law for c in cands])
         self.flights += ev.flown
         self.method.tell(ev.F, ev.cv)
         for c, f, cv in zip(cands, ev.F, ev.cv):
@@ -210,7 +211,7 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
         if bar is not None:
             bar.update(loop, evaluator.simulated / max(time.perf_counter() - t0, 1e-9))
 
-    loop = RunLoop(search, lambda cands: evaluator.evaluate([c.law for c in cands]), archive,
+    loop = RunLoop(search, evaluator.evaluate, archive,
                    flights=problem.budget.flights, seconds=problem.budget.seconds,
                    flights_done=sim0, on_boundary=boundary, stop_after=stop_after)
     try:
