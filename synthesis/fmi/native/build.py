@@ -33,7 +33,7 @@ __all__ = ["C_DIR", "Variable", "CompilerNotFoundError", "NativeBuildError", "fi
 C_DIR = Path(__file__).resolve().parent / "c"
 #: The FMI 2.0 headers (Modelica Association, 2-clause BSD licence) and the wrapper.
 WRAPPER_FILES = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h",
-                 "native_model.h", "fmi2_cs.c")
+                 "native_model.h", "py_repr.h", "fmi2_cs.c")
 #: Flags of the native build.  -ffp-contract=off: no fused multiply-add, so every operation
 #: rounds as the Python evaluation does; -fvisibility=hidden: only the FMI functions are
 #: exported (they are marked visible by fmi2Functions.h).

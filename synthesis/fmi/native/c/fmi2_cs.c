@@ -13,6 +13,11 @@
  * an invalid parameter at exitInitializationMode) return fmi2Error and are logged through the
  * host's logger with category logStatusError; the instance stays usable after fmi2Reset.
  *
+ * A stateful model (native_model.h, optional hooks) gets its own zeroed memory per instance and
+ * is told when its start values are set (instantiation, reset), when its parameters passed the
+ * check (entering and leaving initialisation, as the pythonfmu slaves prepare) and when it
+ * steps; the defaults below do nothing.
+ *
  * descent-fmus (MIT licence).
  */
 #include <math.h>
@@ -23,6 +28,31 @@
 
 #include "fmi2Functions.h"
 #include "native_model.h"
+#include "py_repr.h"
+
+/* -- default hooks: a model without a state of its own defines none of them ---------------- */
+#if defined(_MSC_VER)
+#define DEFAULT_HOOK(name) descent_default_##name
+#pragma comment(linker, "/alternatename:model_data_size=descent_default_model_data_size")
+#pragma comment(linker, "/alternatename:model_reset=descent_default_model_reset")
+#pragma comment(linker, "/alternatename:model_prepare=descent_default_model_prepare")
+#pragma comment(linker, "/alternatename:model_step=descent_default_model_step")
+#else
+#define DEFAULT_HOOK(name) __attribute__((weak)) name
+#endif
+
+size_t DEFAULT_HOOK(model_data_size)(void) { return 0; }
+
+void DEFAULT_HOOK(model_reset)(ModelState *s) { (void)s; }
+
+void DEFAULT_HOOK(model_prepare)(ModelState *s) { (void)s; }
+
+void DEFAULT_HOOK(model_step)(ModelState *s, double t, double h)
+{
+    (void)s;
+    (void)t;
+    (void)h;
+}
 
 typedef enum { ST_INSTANTIATED, ST_INIT, ST_STEP, ST_TERMINATED, ST_ERROR } Mode;
 
@@ -64,11 +94,14 @@ static void set_starts(Instance *c)
     memcpy(c->s.r, MODEL_REAL_START, sizeof(double) * (size_t)MODEL_N_REAL);
     if (MODEL_N_INTEGER > 0)
         memcpy(c->s.i, MODEL_INTEGER_START, sizeof(int) * (size_t)MODEL_N_INTEGER);
+    if (c->s.data != NULL)
+        memset(c->s.data, 0, model_data_size());
     c->s.time = 0.0;
     c->s.last_step = 0.0;
     c->stale = 1;
     c->sampling = c->holding = c->sampled_once = 0;
     c->sample_t = 0.0;
+    model_reset(&c->s);
 }
 
 /* -- common functions ------------------------------------------------------------------- */
@@ -117,10 +150,13 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     c->name = (char *)malloc(strlen(tmp.name) + 1);
     c->s.r = (double *)calloc((size_t)MODEL_N_REAL + 1, sizeof(double));
     c->s.i = (int *)calloc((size_t)MODEL_N_INTEGER + 1, sizeof(int));
-    if (c->name == NULL || c->s.r == NULL || c->s.i == NULL) {
+    c->s.data = model_data_size() > 0 ? calloc(1, model_data_size()) : NULL;
+    if (c->name == NULL || c->s.r == NULL || c->s.i == NULL
+        || (model_data_size() > 0 && c->s.data == NULL)) {
         free(c->name);
         free(c->s.r);
         free(c->s.i);
+        free(c->s.data);
         free(c);
         return NULL;
     }
@@ -138,6 +174,7 @@ void fmi2FreeInstance(fmi2Component comp)
         return;
     free(c->s.r);
     free(c->s.i);
+    free(c->s.data);
     free(c->name);
     free(c);
 }
@@ -174,6 +211,10 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component comp)
     }
     c->mode = ST_INIT;
     c->stale = 1;
+    /* the start values are set by now: prepare with them (a container reads outputs during
+       initialisation); invalid values are reported at fmi2ExitInitializationMode */
+    if (model_check(&c->s) == NULL)
+        model_prepare(&c->s);
     return fmi2OK;
 }
 
@@ -191,9 +232,10 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
     if (bad == NULL && MODEL_SAMPLE_PERIOD >= 0) {
         double period = c->s.r[MODEL_SAMPLE_PERIOD];
         static char msg[120];
-        if (!isfinite(period) || period < 0.0) {
-            snprintf(msg, sizeof msg, "parameter sample_period must be %s, got %g",
-                     isfinite(period) ? ">= 0" : "finite", period);
+        char value[40];
+        if (!isfinite(period) || period < 0.0) {       /* the pythonfmu controllers' words */
+            snprintf(msg, sizeof msg, "parameter sample_period must be %s, got %s",
+                     isfinite(period) ? ">= 0" : "finite", py_repr(period, value));
             bad = msg;
         }
         c->sampling = period > 0.0;
@@ -206,6 +248,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
     c->holding = c->sampled_once = 0;
     c->mode = ST_STEP;
     c->stale = 1;
+    model_prepare(&c->s);
     return fmi2OK;
 }
 
@@ -296,6 +339,7 @@ fmi2Status fmi2GetInteger(fmi2Component comp, const fmi2ValueReference vr[], siz
     size_t k;
     if (c == NULL || (n > 0 && (vr == NULL || value == NULL)))
         return fmi2Error;
+    refresh(c);
     for (k = 0; k < n; k++) {
         int j = integer_index(c, vr[k]);
         if (j < 0)
@@ -486,11 +530,15 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
         elapsed = t1 - c->sample_t;
         if (elapsed < c->s.r[MODEL_SAMPLE_PERIOD] * (1.0 - 1e-9))
             return fmi2OK;
-        t = c->sample_t;
-        h = elapsed;
+        if (c->sample_t != t) {      /* one communication step since the sample: as given */
+            t = c->sample_t;
+            h = elapsed;
+        }
         c->sample_t = t1;
         c->holding = 0;
     }
+    refresh(c);
+    model_step(&c->s, t, h);
     c->s.time = t + h;
     if (h > 0.0)
         c->s.last_step = h;

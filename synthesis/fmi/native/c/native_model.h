@@ -7,10 +7,16 @@
  * outputs from the inputs, the parameters and the time.  The wrapper does everything else
  * (instances, modes, get/set, steps, logging), once for every native export.
  *
+ * A model with a state of its own (an estimator's sums, a compiled matrix) also defines some of
+ * the optional hooks at the end: fmi2_cs.c holds default definitions of them that do nothing
+ * (weak symbols), so a model that is a plain function of its inputs (law_model.c) defines none.
+ *
  * descent-fmus (MIT licence).
  */
 #ifndef DESCENT_NATIVE_MODEL_H
 #define DESCENT_NATIVE_MODEL_H
+
+#include <stddef.h>
 
 /* kinds of variables (causality and variability) */
 #define KIND_INPUT 0         /* causality input, continuous */
@@ -23,6 +29,8 @@ typedef struct {
     int *i;                  /* Integer values, by value reference - N_REAL */
     double time;             /* current communication point [s] */
     double last_step;        /* size of the last doStep > 0 [s]; 0 before the first */
+    void *data;              /* the model's own memory per instance (model_data_size() bytes,
+                                zeroed at instantiation and reset), or NULL */
 } ModelState;
 
 extern const char MODEL_GUID[];
@@ -42,5 +50,17 @@ const char *model_check(const ModelState *s);
 /* the outputs (Reals of KIND_OUTPUT) from the inputs, the parameters and the time; never NaN or
  * inf */
 void model_outputs(ModelState *s);
+
+/* -- optional hooks (default: nothing) ------------------------------------------------------ */
+/* bytes of per-instance memory the model needs in s->data */
+size_t model_data_size(void);
+/* the start values have just been set (instantiation, fmi2Reset): derive what depends on them */
+void model_reset(ModelState *s);
+/* the parameters passed model_check (entering and leaving initialisation mode): derive the run
+   constants from them */
+void model_prepare(ModelState *s);
+/* the model's own step over [t, t + h] (a sampled controller: the whole interval since its last
+   sample), after the outputs were brought up to date and before s->time moves to t + h */
+void model_step(ModelState *s, double t, double h);
 
 #endif
