@@ -21,7 +21,8 @@ import re
 from descent_fmus.models.controllers.network_operator import (BINARY_OPS, CONSTANTS, FUNCTIONS,
                                                               HELPERS, UNARY_OPS, MatrixError)
 
-__all__ = ["render", "operations_c", "law_c", "c_double", "c_identifier", "OperationError"]
+__all__ = ["render", "operations_c", "law_c", "c_double", "c_identifier", "OperationError",
+           "interpreter_operations_h"]
 
 #: C names of the language's functions (the helpers are the static ``no_<name>`` functions).
 C_FUNCTIONS = {"abs": "fabs", "max": "no_max", "sqrt": "sqrt", "exp": "exp", "log": "log",
@@ -156,6 +157,32 @@ def operations_c(unary=(), binary=(), helpers=("finite", "clip", "scale")) -> st
                      f"static double {cname}({params})\n{{\n    return {render(op.expr, names)};"
                      f"\n}}")
     return "\n".join(lines) + "\n"
+
+
+def interpreter_operations_h() -> str:
+    """``no_operations.h`` of the native matrix interpreter (``c/no_interp.c``): every operation
+    of the table as a static function (:func:`operations_c`), the unit elements ``NO_UNIT[k]``
+    of the binary operations, their counts and the dispatch ``no_rho(k, z)`` / ``no_chi(k, a,
+    b)`` (a ``switch`` the compiler inlines the operations into)."""
+    nu, nb = len(UNARY_OPS) - 1, len(BINARY_OPS) - 1
+    units = ", ".join(["0.0"] + [c_double(BINARY_OPS[k].unit) for k in range(1, nb + 1)])
+
+    def dispatch(kind, args, params, n):
+        cases = "".join(f"    case {k}: return {kind}{k}({args});\n" for k in range(1, n + 1))
+        return (f"static inline double no_{kind}(int k, {params})\n{{\n    switch (k) {{\n"
+                f"{cases}    default: return 0.0;\n    }}\n}}\n")
+    return ("/* no_operations.h -- the network operator's operation table rendered to C (generated "
+            "by descent-fmus\n * from models/controllers/network_operator.py; regenerate rather "
+            "than edit). */\n#ifndef DESCENT_NO_OPERATIONS_H\n#define DESCENT_NO_OPERATIONS_H\n\n"
+            "#include <math.h>\n\n"
+            # static inline: a file that includes it for the helpers only is not warned of
+            # the operations it does not use
+            + operations_c(range(1, nu + 1), range(1, nb + 1)).replace(
+                "static double ", "static inline double ") + "\n"
+            f"#define NO_N_UNARY {nu}\n#define NO_N_BINARY {nb}\n"
+            f"static const double NO_UNIT[NO_N_BINARY + 1] = {{{units}}};\n\n"
+            + dispatch("rho", "z", "double z", nu) + "\n"
+            + dispatch("chi", "a, b", "double a, double b", nb) + "\n#endif\n")
 
 
 def _reachable(psi, ns: int, outputs) -> set:

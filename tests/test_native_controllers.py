@@ -1,0 +1,186 @@
+"""Native generic controllers (C, no Python in the host) against their pythonfmu twins.
+
+Oracles: ``NetworkOperator.__call__`` (the Python evaluation of the one operation table) and the
+pythonfmu controller FMUs of ``models/controllers/`` -- their outputs (bitwise equal: both
+evaluate the same IEEE operations in the same order, with the platform's C math library), their
+variables (names, start values, descriptions, units, causality, variability) and their error
+messages (the same words); ``fmpy validate``; the dynamic symbols of the binaries (no ``Py*``).
+Tolerance: none -- every comparison of numbers is bitwise (``struct.pack('<d')``).
+"""
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import zipfile
+
+import numpy as np
+import pytest
+from fmpy import read_model_description
+from fmpy.validation import validate_fmu
+
+from descent_fmus.models.controllers.network_operator import BINARY, UNARY
+from descent_fmus.synthesis.fmi.closed_loop import load_slave
+from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.controllers import NATIVE_CONTROLLERS
+from descent_fmus.synthesis.methods.law import NetworkOperator
+
+from test_native_law import bits, every_operation_law, inputs, start
+
+pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (CI installs gcc)")
+
+
+@pytest.fixture(scope="module")
+def native(tmp_path_factory):
+    """The native twins, built here (name -> FMU path)."""
+    d = tmp_path_factory.mktemp("native")
+    return {name: build(d / f"{name}.fmu") for name, build in NATIVE_CONTROLLERS.items()}
+
+
+@pytest.fixture
+def pair(native, fmu_dir):
+    """``pair(name)``: (pythonfmu, native) instances of a controller with their logs."""
+    made = []
+
+    def load(name):
+        out = []
+        for tag, path in (("py", fmu_dir / f"{name}.fmu"), ("c", native[name])):
+            log = []
+            fmu = load_slave(path, tag, log)
+            made.append(fmu)
+            out.append((fmu, log))
+        return out
+    yield load
+    for fmu in made:
+        fmu.freeInstance()
+
+
+def random_law(rng) -> NetworkOperator:
+    """A random matrix within the controller's capacity: 10..32 nodes, 1..8 inputs, 0..16
+    parameters, random operations on a quarter of the arcs, 1..4 outputs on any node (a source
+    too), random bounds and input scaling."""
+    L = int(rng.integers(10, 33))
+    nx = int(rng.integers(1, 9))
+    nq = int(rng.integers(0, min(16, L - nx - 1) + 1))
+    psi = np.zeros((L, L), dtype=int)
+    for j in range(nx + nq, L):
+        psi[j, j] = rng.integers(0, len(BINARY))
+        for i in range(j):
+            if rng.random() < 0.25:
+                psi[i, j] = rng.integers(1, len(UNARY))
+    nu = int(rng.integers(1, 5))
+    bounds = [(float(lo), float(lo + abs(w))) for lo, w in rng.normal(0, 10, (nu, 2))]
+    return NetworkOperator(psi, nx=nx, q=list(rng.normal(0, 3, nq)),
+                           outputs=[int(o) for o in rng.integers(1, L + 1, nu)], bounds=bounds,
+                           input_scale=list(rng.normal(0, 2, nx)),
+                           input_offset=list(rng.normal(0, 1, nx)))
+
+
+def test_interpreter_equals_the_python_law(native):
+    # 90 laws (random matrices, and laws on which every operation acts), each loaded by its
+    # start values alone, >= 300 inputs each incl. +-0, +-1e300, +-inf, NaN, 5e-324, the clamp:
+    # every output bitwise NetworkOperator.__call__'s, never NaN or inf
+    rng = np.random.default_rng(2024)
+    fmu = load_slave(native["NetworkOperatorController"], "interpreter")
+    n = 0
+    try:
+        for k in range(90):
+            law = every_operation_law(rng) if k % 3 == 0 else random_law(rng)
+            vr = start(fmu, law.start_values())
+            xi = [vr[f"x[{i + 1}]"] for i in range(law.nx)]
+            ui = [vr[f"u[{i + 1}]"] for i in range(len(law.outputs))]
+            for x in inputs(rng, law.nx, 120):
+                fmu.setReal(xi, x)
+                got, want = fmu.getReal(ui), law(x)
+                assert [bits(v) for v in got] == [bits(v) for v in want], (k, x, got, want)
+                assert all(math.isfinite(v) for v in got)
+                n += 1
+    finally:
+        fmu.freeInstance()
+    assert n > 30_000
+
+
+def test_network_operator_twin_equals_the_pythonfmu_controller(pair):
+    # the default law (no start value set), a sampled law stepped finer than its period, and a
+    # law whose q is set after a reset: the same outputs, bitwise, at every communication point
+    (py, _), (c, _) = pair("NetworkOperatorController")
+    rng = np.random.default_rng(7)
+    laws = [({}, 2), (dict(random_law(rng).start_values(), sample_period=0.75), None),
+            (every_operation_law(rng).start_values(), None)]
+    for values, nx in laws:
+        runs = []
+        for fmu in (py, c):
+            vr = start(fmu, values)
+            n_in = nx or values["nx"]
+            xi = [vr[f"x[{i + 1}]"] for i in range(n_in)]
+            ui = [vr[f"u[{i + 1}]"] for i in range(4)]
+            seq, t, steps = [], 0.0, np.random.default_rng(1).uniform(0.1, 0.6, 80)
+            xs = inputs(np.random.default_rng(2), n_in, 80)
+            for x, h in zip(xs, steps):
+                fmu.setReal(xi, x)
+                seq.append([bits(v) for v in fmu.getReal(ui)])
+                fmu.doStep(t, float(h))
+                t += float(h)
+            runs.append(seq)
+        assert runs[0] == runs[1]
+
+
+#: Bad start values of the NetworkOperatorController: each is refused at
+#: exitInitializationMode with the words of the Python controller.
+BAD_NO = [{"nx": 9}, {"nq": -1}, {"nu": 0}, {"u_min[1]": 1.0}, {"u_max[1]": math.inf},
+          {"q[2]": math.nan}, {"x_scale[2]": -math.inf}, {"psi[7,7]": 9}, {"psi[7,7]": -2},
+          {"psi[3,3]": 1}, {"psi[1,3]": 1}, {"psi[1,9]": 29}, {"out[1]": 33}, {"nu": 2},
+          {"sample_period": -1.0}, {"sample_period": math.inf},
+          {"u_min[1]": 1e-05, "u_max[1]": 1e-06}]
+
+
+@pytest.mark.parametrize("name,cases", [("NetworkOperatorController", BAD_NO)])
+def test_errors_are_named_as_the_python_controller_names_them(pair, name, cases):
+    (py, py_log), (c, c_log) = pair(name)
+    for case in cases:
+        said = []
+        for fmu, log in ((py, py_log), (c, c_log)):
+            del log[:]
+            with pytest.raises(Exception):
+                start(fmu, case)
+            said.append(log[0].split(": ", 1)[1])      # after "<model or instance>: "
+        assert said[0] == said[1], case
+    for fmu in (py, c):
+        start(fmu, {})                                   # usable again after the errors
+
+
+def _variables(path) -> dict:
+    md = read_model_description(str(path))
+    return {v.name: (v.type, v.causality, v.variability, v.start and float(v.start),
+                     v.description, v.unit) for v in md.modelVariables}
+
+
+@pytest.mark.parametrize("name", sorted(NATIVE_CONTROLLERS))
+def test_twin_has_the_pythonfmu_variables(native, fmu_dir, name):
+    # names, types, causality, variability, start values, descriptions and units: the same
+    # (value references differ: the native FMU numbers its Reals first); fmpy validate passes
+    want, got = _variables(fmu_dir / f"{name}.fmu"), _variables(native[name])
+    assert list(got) == [n for n in want if want[n][0] == "Real"] + \
+        [n for n in want if want[n][0] == "Integer"]
+    for n, (kind, causality, variability, s, description, unit) in want.items():
+        g = got[n]
+        assert g[:3] == (kind, causality, variability) and g[4:] == (description, unit), n
+        assert g[3] == s or causality == "output", n
+    assert validate_fmu(str(native[name])) == []
+
+
+@pytest.mark.parametrize("name", sorted(NATIVE_CONTROLLERS))
+def test_no_python_in_the_binary(native, name, tmp_path):
+    nm = shutil.which("nm")
+    if nm is None:
+        pytest.skip("nm (binutils) not installed")
+    with zipfile.ZipFile(native[name]) as z:
+        so = [n for n in z.namelist() if n.startswith("binaries/")]
+        assert len(so) == 1 and not any(n.endswith(".py") for n in z.namelist())
+        lib = tmp_path / "lib.so"
+        lib.write_bytes(z.read(so[0]))
+    dyn = subprocess.run([nm, "-D", str(lib)], capture_output=True, text=True, check=True).stdout
+    symbols = [line.split()[-1] for line in dyn.splitlines() if line.strip()]
+    assert not [s for s in symbols if s.startswith(("Py", "_Py")) or "python" in s.lower()]
+    exported = {line.split()[-1] for line in dyn.splitlines() if " T " in line}
+    assert "fmi2DoStep" in exported and all(s.startswith("fmi2") for s in exported)
