@@ -18,7 +18,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 from descent_fmus.models.reentry import ReentryParams, deviations, simulate
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry import wiring as spec
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 

@@ -36,7 +36,7 @@ from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
 from descent_fmus.synthesis.problems.runner import Runner
 from descent_fmus.synthesis.methods.registry import make_method
-from descent_fmus.synthesis.systems.reentry import sensed
+from descent_fmus.synthesis.systems.reentry.problems import set_problems
 
 
 def _set_times(loop, problem, law):
@@ -102,7 +102,7 @@ def main(argv=None):
     ap.add_argument("--fmus", type=Path, default=fmu_dir())
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    problems = {p.name: p for p in sensed.problems()}
+    problems = {p.name: p for p in set_problems()}
     out = {"container_vs_master": {}, "evaluations": {}}
     for name, pb in problems.items():
         out["container_vs_master"][name] = container_vs_master(pb, args.fmus, args.repeat)

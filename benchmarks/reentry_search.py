@@ -39,7 +39,7 @@ def main(argv=None):
     from descent_fmus.synthesis.paths import fmu_dir
     from descent_fmus.synthesis.registry import get_problem
     from descent_fmus.synthesis.run.loop import run_synthesis
-    from descent_fmus.synthesis.systems.reentry.problems import bound_reference
+    from descent_fmus.synthesis.systems.reentry.reports import bound_reference
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])

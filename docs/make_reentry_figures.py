@@ -22,10 +22,11 @@ from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.run.report import plot_front
-from descent_fmus.synthesis.systems.reentry import problems as spec
 from descent_fmus.synthesis.systems.reentry.bound import Program, replay_program
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
+from descent_fmus.synthesis.systems.reentry.objectives import objectives
+from descent_fmus.synthesis.systems.reentry.reports import BOUND_FILES
 
 DOCS = ROOT / "docs" / "figures"
 
@@ -57,7 +58,7 @@ def main(argv=None):
     ref = ROOT / "tests" / "reference" / "reentry_best_law.json"
     ref.parent.mkdir(exist_ok=True)
     law.save(ref)
-    prog = Program.load(args.run / spec.BOUND_FILES[1])
+    prog = Program.load(args.run / BOUND_FILES[1])
     flights = {}
     with load_loop(args.fmus, record=("h", "L", "load")) as loop:
         for name, lw in (("synthesised law", law), ("basic law (paper q)",
@@ -68,7 +69,7 @@ def main(argv=None):
     tr = out["trace"]
     flights["bound: best 1 s program, miss <= 1 km"] = (
         _Rec(tr["t"], {"h": tr["h"], "L": tr["L"], "load": tr["load"], "ctrl.u[1]": tr["u"]}),
-        spec.objectives(out, ReentryParams()))
+        objectives(out, ReentryParams()))
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
     for name, (r, o) in flights.items():
         lab = f"{name}: J1 = {o['J1']:.3f}, miss = {o['J2'] / 1e3:.2f} km"

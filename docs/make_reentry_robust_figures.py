@@ -34,8 +34,12 @@ from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
 from descent_fmus.synthesis.cli.common import json_safe
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.systems.reentry import sensed
 from descent_fmus.synthesis.systems.reentry.bound import Program, optimize_open_loop
+from descent_fmus.synthesis.systems.reentry.guidance import (DEFAULT_LAW_FILE, GUIDED_LAW_FILE,
+                                                             NOMINAL_LAW_FILE)
+from descent_fmus.synthesis.systems.reentry.laws import as_guided
+from descent_fmus.synthesis.systems.reentry.objectives import J1_LIMIT
+from descent_fmus.synthesis.systems.reentry.reports import best_guided_row, best_row
 from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
                                                                   robust_study, table_lines)
 
@@ -47,15 +51,15 @@ GATE = 20.0
 def best_law(run: Path) -> tuple[NetworkOperator, dict]:
     """The run's robust law (sensed.best_row: lowest J2 with median J1 < 9.0 and the nominal
     flight within 1 km)."""
-    row = sensed.best_row(json.loads((run / "pareto.json").read_text()))
+    row = best_row(json.loads((run / "pareto.json").read_text()))
     if row is None:
-        raise SystemExit(f"{run}: no law with median J1 < {sensed.J1_LIMIT}")
+        raise SystemExit(f"{run}: no law with median J1 < {J1_LIMIT}")
     return NetworkOperator.from_dict(row["law"]), row
 
 
 def best_guided_law(run: Path) -> tuple[NetworkOperator, dict]:
     """The guided run's law (lowest median J1 with median miss < 1 km, nominal within 1 km)."""
-    row = sensed.best_guided_row(json.loads((run / "pareto.json").read_text()))
+    row = best_guided_row(json.loads((run / "pareto.json").read_text()))
     if row is None:
         raise SystemExit(f"{run}: no law with median miss < 1 km")
     return NetworkOperator.from_dict(row["law"]), row
@@ -82,21 +86,21 @@ def main(argv=None):
 
     laws, rows = {}, {}
     law, rows["sensed"] = best_law(args.sensed_run)
-    law.save(sensed.DEFAULT_LAW_FILE)
+    law.save(DEFAULT_LAW_FILE)
     laws["synthesised, y1 y2 y3 (sensed)"] = law
     laws["synthesised, y1 y2 (same objective)"], rows["y12"] = best_law(args.y12_run)
     if args.cma:
         laws["CMA-ES polynomial, y1 y2 y3"], rows["cma"] = best_law(args.cma)
     if args.guided:
         law, rows["guided"] = best_guided_law(args.guided)
-        law.save(sensed.GUIDED_LAW_FILE)
+        law.save(GUIDED_LAW_FILE)
         laws["synthesised guided law (y1 y2 y3 c + correction)"] = law
         if args.gate > 0.0:
             laws[f"synthesised guided law, load gate {args.gate:g} g"] = \
                 (law, {"correction_gate": args.gate})
-    nominal = NetworkOperator.load(sensed.NOMINAL_LAW_FILE)
+    nominal = NetworkOperator.load(NOMINAL_LAW_FILE)
     laws["nominal synthesised law"] = nominal
-    laws["nominal synthesised law + correction c"] = sensed.as_guided(nominal)
+    laws["nominal synthesised law + correction c"] = as_guided(nominal)
     programs = {}
     for name, params in (("default", ReentryParams()), ("second", SECOND_SCENARIO)):
         cached = args.programs / f"open_loop_{name}.json" if args.programs else None

@@ -10,7 +10,7 @@ from fmpy.validation import validate_fmu
 
 from descent_fmus.models.reentry import ReentryParams, downrange, simulate
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUNotFoundError
-from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry import wiring as spec
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 

@@ -176,7 +176,7 @@ def test_malformed_law_file(tmp_path):
 
 def test_fmu_rejects_a_bad_matrix_with_its_reason(fmu_dir):
     from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
-    from descent_fmus.synthesis.systems.reentry.problems import WIRING
+    from descent_fmus.synthesis.systems.reentry.wiring import WIRING
     loop = ClosedLoop(WIRING, fmu_dir / "Reentry.fmu", fmu_dir / "NetworkOperatorController.fmu")
     try:
         with pytest.raises(FMUError, match="unknown unary operation 77 on arc 1->5"):

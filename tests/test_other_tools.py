@@ -12,7 +12,7 @@ import pytest
 from descent_fmus.synthesis.fmi.other_tools import EcosUnavailable, run_ecos
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.systems.reentry.flight import load_loop
-from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry import wiring as spec
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
 

@@ -18,13 +18,18 @@ from descent_fmus.models.reentry import ReentryParams, deviations, initial_state
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem
-from descent_fmus.synthesis.systems.reentry import problems as spec
-from descent_fmus.synthesis.systems.reentry import sensed
+from descent_fmus.synthesis.systems.reentry.guidance import (GUIDED_LAW_FILE, GUIDED_WIRING,
+                                                             NOMINAL_LAW_FILE,
+                                                             default_guided_law,
+                                                             guided_basic_law, reads_correction)
+from descent_fmus.synthesis.systems.reentry.laws import as_guided
+from descent_fmus.synthesis.systems.reentry.sample_set import SYNTHESIS_SAMPLES, synthesis_set
+from descent_fmus.synthesis.systems.reentry.wiring import plant_values
 from descent_fmus.synthesis.systems.reentry.oracle import oracle_bound
 from descent_fmus.synthesis.systems.reentry.robust_study import fly_law
 
 P0 = ReentryParams()
-NOMINAL = NetworkOperator.load(sensed.NOMINAL_LAW_FILE)
+NOMINAL = NetworkOperator.load(NOMINAL_LAW_FILE)
 
 
 def _range_dop853_sampled(p: ReentryParams, control, dt: float) -> float:
@@ -65,15 +70,15 @@ def test_prediction_with_a_feedback_law_against_an_independent_integration(dt):
 
 
 def test_as_guided_keeps_the_law_and_adds_the_inputs():
-    g = sensed.as_guided(NOMINAL)
+    g = as_guided(NOMINAL)
     assert g.input_names == ["y1", "y2", "y3", "c"] and g.size <= 32
-    assert sensed.reads_correction(g) and not sensed.reads_correction(NOMINAL)
+    assert reads_correction(g) and not reads_correction(NOMINAL)
     for y in [(0.01, -0.3), (0.001, -0.45), (-0.02, -0.8)]:
         # the inserted inputs are unused: same value whatever y3 and c are (closed form)
         assert g.raw(list(y) + [0.1, 0.3])[0] == NOMINAL.raw(list(y))[0]
-    assert sensed.as_guided(g) is g
+    assert as_guided(g) is g
     with pytest.raises(ValueError, match="guided law needs the inputs"):
-        sensed.as_guided(NetworkOperator.linear([[1.0, 1.0, 1.0, 1.0, 1.0]]))
+        as_guided(NetworkOperator.linear([[1.0, 1.0, 1.0, 1.0, 1.0]]))
 
 
 def test_guided_law_lands_the_nominal_and_a_reachable_dispersed_flight(fmu_dir):
@@ -81,7 +86,7 @@ def test_guided_law_lands_the_nominal_and_a_reachable_dispersed_flight(fmu_dir):
     # lies inside the reachable interval of constant controls (the oracle lands it exactly)
     p = P0.with_(rho0=P0.rho0 * 0.90, V0=P0.V0 + 20.0)
     assert oracle_bound(p).exact
-    nominal, dispersed = fly_law(sensed.as_guided(NOMINAL), [P0, p], fmu_dir)
+    nominal, dispersed = fly_law(as_guided(NOMINAL), [P0, p], fmu_dir)
     assert nominal["landed"] and nominal["J2"] < 100.0
     assert dispersed["landed"] and dispersed["J2"] < 100.0
     # the law alone (no correction) misses that sample by kilometres: c does the work
@@ -96,11 +101,11 @@ def test_guided_law_lands_the_nominal_and_a_reachable_dispersed_flight(fmu_dir):
     ({"correction_gate": -1.0}, "correction_gate must be >= 0"),
 ])
 def test_guided_controller_rejects_bad_parameters(fmu_dir, bad, message):
-    values = dict(sensed.guided_basic_law().start_values(), **bad)
-    with ClosedLoop(sensed.GUIDED_WIRING, fmu_dir / "Reentry.fmu",
+    values = dict(guided_basic_law().start_values(), **bad)
+    with ClosedLoop(GUIDED_WIRING, fmu_dir / "Reentry.fmu",
                     fmu_dir / "GuidedNetworkOperatorController.fmu") as loop:
         with pytest.raises(FMUError, match=message):
-            loop.run(spec.plant_values(P0), values)
+            loop.run(plant_values(P0), values)
 
 
 def test_guided_problem_judges_the_basic_solution_on_the_set(fmu_dir):
@@ -112,9 +117,9 @@ def test_guided_problem_judges_the_basic_solution_on_the_set(fmu_dir):
     with ClosedLoop(problem.wiring, plant, ctrl) as loop:
         outcome = problem.evaluate(problem.runner.flights(loop, problem, problem.basic()))
     f, extras = outcome.f, outcome.extras
-    assert extras["flights"] == sensed.SYNTHESIS_SAMPLES and extras["miss_nominal"] < 100.0
+    assert extras["flights"] == SYNTHESIS_SAMPLES and extras["miss_nominal"] < 100.0
     assert f[1] < 1000.0 and extras["within_1km"] >= 0.6
-    alone = fly_law(NOMINAL, sensed.synthesis_set(), fmu_dir)
+    alone = fly_law(NOMINAL, synthesis_set(), fmu_dir)
     assert sorted(r["J2"] for r in alone)[len(alone) // 2] > 1000.0
 
 
@@ -126,7 +131,7 @@ def test_guided_cli_bad_input_is_a_one_line_error(tmp_path, capsys):
                  ["synthesize", "reentry-guided", "--statistic", "p99"],
                  ["synthesize", "reentry", "--statistic", "median"],
                  ["reentry", "robustness", "--law", str(law), "--gate", "-1"],
-                 ["reentry", "robustness", "--law", str(sensed.NOMINAL_LAW_FILE),
+                 ["reentry", "robustness", "--law", str(NOMINAL_LAW_FILE),
                   "--gate", "20"]):
         assert main(argv + ["--out", str(tmp_path / "o")] if argv[0] == "synthesize"
                     else argv) == 2
@@ -143,7 +148,7 @@ def test_exported_guided_closed_loop_reproduces_the_evaluators_flights(fmu_dir, 
     from descent_fmus.models.reentry import T_PLUS
     from descent_fmus.synthesis.fmi.law_files import export_law_files
     problem = get_problem("reentry-guided")
-    law = sensed.default_guided_law()
+    law = default_guided_law()
     out = export_law_files(law, tmp_path / "law", law_fmu="native", fmu_dir=fmu_dir,
                            problem=problem, closed_loop=True)
     assert out["law_fmu"] == "python" and out["ssp"].endswith(".ssp")
@@ -167,9 +172,9 @@ def test_committed_guided_law_lands_the_nominal_flight(fmu_dir):
     # the law the built ReentryGuidedClosedLoop.fmu carries (docs/make_reentry_robust_figures.py
     # picks it from the default reentry-guided run): a guided law, nominal flight within 100 m
     # (the guidance acceptance)
-    assert sensed.GUIDED_LAW_FILE.exists()
-    law = sensed.default_guided_law()
-    assert sensed.reads_correction(law)
+    assert GUIDED_LAW_FILE.exists()
+    law = default_guided_law()
+    assert reads_correction(law)
     (row,) = fly_law(law, [P0], fmu_dir)
     assert row["landed"] and row["J2"] < 100.0
 
@@ -196,7 +201,7 @@ def test_load_gate_brakes_where_the_load_has_slack(fmu_dir):
     # (measured 8.59 against 9.02); the nominal flight stays within 100 m (guidance acceptance)
     p = P0.with_(V0=P0.V0 + 30.0)
     assert oracle_bound(p).exact
-    law = sensed.default_guided_law()
+    law = default_guided_law()
     free_nominal, free = fly_law(law, [P0, p], fmu_dir)
     gated_nominal, gated = fly_law(law, [P0, p], fmu_dir, guidance={"correction_gate": 16.0})
     assert gated_nominal["landed"] and gated_nominal["J2"] < 100.0
@@ -215,7 +220,7 @@ def test_closed_loop_fmu_exposes_the_load_gate(fmu_dir):
 
     from descent_fmus.models.reentry import T_PLUS
     p = P0.with_(V0=P0.V0 + 30.0)
-    (ref,) = fly_law(sensed.default_guided_law(), [p], fmu_dir,
+    (ref,) = fly_law(default_guided_law(), [p], fmu_dir,
                      guidance={"correction_gate": 20.0})
     res = simulate_fmu(str(fmu_dir / "ReentryGuidedClosedLoop.fmu"),
                        start_values={"V0": p.V0, "correction_gate": 20.0}, step_size=T_PLUS,

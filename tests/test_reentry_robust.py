@@ -20,8 +20,15 @@ from descent_fmus.models.reentry import T_PLUS, ReentryParams, initial_state
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
-from descent_fmus.synthesis.systems.reentry import problems as spec
-from descent_fmus.synthesis.systems.reentry import sensed
+from descent_fmus.synthesis.systems.reentry.guidance import (DEFAULT_LAW_FILE, default_law,
+                                                             reads_estimate)
+from descent_fmus.synthesis.systems.reentry.laws import sensed_basic_law
+from descent_fmus.synthesis.systems.reentry.objectives import J1_LIMIT, objectives
+from descent_fmus.synthesis.systems.reentry.problems import set_problems
+from descent_fmus.synthesis.systems.reentry.sample_set import (MISS_CAP, RACE_OFFSET,
+                                                               SYNTHESIS_SAMPLES, statistic,
+                                                               synthesis_set)
+from descent_fmus.synthesis.systems.reentry.wiring import WIRING, plant_values
 from descent_fmus.synthesis.systems.reentry.oracle import oracle_bound
 from descent_fmus.synthesis.systems.reentry.robust_study import (fly_law, held_out_samples,
                                                                   robust_study, table_lines)
@@ -70,8 +77,8 @@ def test_npc_prediction_against_an_independent_integration():
 def test_held_out_set_is_seeded_and_disjoint_from_the_synthesis_set():
     held = held_out_samples(200, seed=7)
     assert held == held_out_samples(200, seed=7)
-    synth = sensed.synthesis_set()
-    assert len(synth) == sensed.SYNTHESIS_SAMPLES and synth[0] == P0    # nominal first
+    synth = synthesis_set()
+    assert len(synth) == SYNTHESIS_SAMPLES and synth[0] == P0           # nominal first
     keys = {(p.rho0, p.m, p.V0, p.beta0) for p in synth}
     assert not any((p.rho0, p.m, p.V0, p.beta0) in keys for p in held)
     assert P0 not in held
@@ -82,13 +89,13 @@ def test_held_out_set_is_seeded_and_disjoint_from_the_synthesis_set():
 def test_bad_input_is_a_one_line_error(capsys):
     from descent_fmus.synthesis.cli.main import main
     with pytest.raises(ValueError, match="unknown statistic 'p99'; choose from"):
-        sensed.statistic("p99")
+        statistic("p99")
     with pytest.raises(ValueError, match="unknown statistic"):
-        sensed.problems(statistic_name="worst-ish")
+        set_problems(statistic_name="worst-ish")
     with pytest.raises(ValueError, match="samples must be >= 1"):
         held_out_samples(0)
     with pytest.raises(ValueError, match="samples must be >= 1"):
-        sensed.synthesis_set(0)
+        synthesis_set(0)
     for argv in (["--samples", "0"], ["--noise", "-0.1"], ["--scenario", "third"]):
         with pytest.raises(SystemExit) as exc:
             main(["reentry", "robustness"] + argv)
@@ -98,7 +105,7 @@ def test_bad_input_is_a_one_line_error(capsys):
 
 
 def test_racing_stops_a_law_that_misses_the_nominal_flight(fmu_dir):
-    problem = next(p for p in sensed.problems() if p.name == "reentry-sensed")
+    problem = next(p for p in set_problems() if p.name == "reentry-sensed")
     with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu",
                     fmu_dir / "SensedNetworkOperatorController.fmu") as loop:
         bad = NetworkOperator.linear([[0.0, 0.0, 0.0]], bias=[0.2])     # u = +0.2: 35 km short
@@ -107,29 +114,29 @@ def test_racing_stops_a_law_that_misses_the_nominal_flight(fmu_dir):
         assert len(results) == 1                              # raced out after the nominal
         outcome = problem.evaluate(results)
         f, extras = outcome.f, outcome.extras
-        assert f[1] >= 2 * sensed.RACE_OFFSET and extras["raced_out"]
+        assert f[1] >= 2 * RACE_OFFSET and extras["raced_out"]
         good = problem.runner.flights(loop, problem, problem.basic())
-        assert len(good) == sensed.SYNTHESIS_SAMPLES            # flew the whole set
+        assert len(good) == SYNTHESIS_SAMPLES                   # flew the whole set
         g = problem.evaluate(good).f
-        assert g[1] < sensed.RACE_OFFSET                        # ranked before any raced-out law
-        miss = [min(spec.objectives(r.final, P0)["J2"], sensed.MISS_CAP) for r in good]
+        assert g[1] < RACE_OFFSET                               # ranked before any raced-out law
+        miss = [min(objectives(r.final, P0)["J2"], MISS_CAP) for r in good]
         assert g[1] == pytest.approx(float(np.mean(miss)), rel=1e-12)   # the default: mean
 
 
 def test_container_path_flies_the_same_flight_as_the_python_master(fmu_dir):
-    law = sensed.sensed_basic_law(2)
+    law = sensed_basic_law(2)
     p = P0.with_(rho0=1.3, V0=7530.0)
-    with ClosedLoop(spec.WIRING, fmu_dir / "Reentry.fmu",
+    with ClosedLoop(WIRING, fmu_dir / "Reentry.fmu",
                     fmu_dir / "NetworkOperatorController.fmu") as loop:
-        a = loop.run(spec.plant_values(p), law.start_values()).final
-    with ContainerLoop(spec.WIRING, fmu_dir / "Reentry.fmu",
+        a = loop.run(plant_values(p), law.start_values()).final
+    with ContainerLoop(WIRING, fmu_dir / "Reentry.fmu",
                        fmu_dir / "NetworkOperatorController.fmu") as cl:
         for _ in range(2):                                      # reset between runs
-            b = cl.run(spec.plant_values(p), law.start_values()).final
+            b = cl.run(plant_values(p), law.start_values()).final
             assert b["status"] == a["status"] == 1
             for k in ("L", "load_max", "t_end", "aero_load_max"):
                 assert b[k] == pytest.approx(a[k], rel=1e-12)
-        nominal = cl.run(spec.plant_values(P0), law.start_values()).final
+        nominal = cl.run(plant_values(P0), law.start_values()).final
         assert nominal["L"] != pytest.approx(a["L"], rel=1e-6)   # the parameters were applied
 
 
@@ -137,11 +144,11 @@ def test_committed_robust_law_lands_the_nominal_flight(fmu_dir):
     # the law the built ReentrySensedClosedLoop.fmu carries (docs/make_reentry_robust_figures.py
     # picks it: nominal flight within 1 km, median J1 over the set below 9.0 -- the issue's
     # targets for the nominal flight and the load)
-    assert sensed.DEFAULT_LAW_FILE.exists()
-    law = sensed.default_law()
-    assert sensed.reads_estimate(law)
+    assert DEFAULT_LAW_FILE.exists()
+    law = default_law()
+    assert reads_estimate(law)
     (row,) = fly_law(law, [P0], fmu_dir)
-    assert row["landed"] and row["J2"] < 1000.0 and row["J1"] < sensed.J1_LIMIT
+    assert row["landed"] and row["J2"] < 1000.0 and row["J1"] < J1_LIMIT
 
 
 def test_exported_closed_loop_with_the_estimator_reproduces_the_pareto_row(fmu_dir, tmp_path):
@@ -149,8 +156,8 @@ def test_exported_closed_loop_with_the_estimator_reproduces_the_pareto_row(fmu_d
     # defaults, closed-loop container, SSP), flown by fmpy simulate from every point of the
     # synthesis set: the objectives equal the evaluator's row
     from descent_fmus.synthesis.fmi.law_files import export_law_files
-    problem = next(p for p in sensed.problems() if p.name == "reentry-sensed")
-    law = sensed.default_law()
+    problem = next(p for p in set_problems() if p.name == "reentry-sensed")
+    law = default_law()
     out = export_law_files(law, tmp_path / "law", law_fmu="native", fmu_dir=fmu_dir,
                            problem=problem, closed_loop=True)
     assert out["law_fmu"] == "python" and out["ssp"].endswith(".ssp")
@@ -158,7 +165,7 @@ def test_exported_closed_loop_with_the_estimator_reproduces_the_pareto_row(fmu_d
                     fmu_dir / "SensedNetworkOperatorController.fmu") as loop:
         outcome = problem.evaluate(problem.runner.flights(loop, problem, law))
     f, extras = outcome.f, outcome.extras
-    assert extras["flights"] == sensed.SYNTHESIS_SAMPLES
+    assert extras["flights"] == SYNTHESIS_SAMPLES
 
     class Final:
         def __init__(self, row, start):

@@ -1,20 +1,19 @@
 """S1 -- Earth atmospheric descent: network-operator synthesis of a feedback law u = phi(y, q).
 
-Files of this system: ``models/reentry.py`` (equations, the Reentry FMU), this package
-(``problems`` wiring and synthesis problems, ``flight`` closed-loop flights and plots, ``bound``
-the best open-loop program, ``robustness`` the dispersion study, ``sensed`` robust guidance with
-sensed drag (wirings, robust problems), ``oracle`` the per-sample bound, ``cli`` its commands), and
-``tests/test_reentry_*.py``.  The generic pieces it uses: the NetworkOperatorController and
-ProgramController FMUs, ``synthesis.methods`` (network operator, GA, open loop).
+Files of this system: ``models/reentry.py`` (equations, the Reentry FMU), this package --
+``wiring`` the nominal closed loop, ``guidance`` the guidance closed loops (sensed drag, NPC,
+guided) and the committed laws their FMUs carry, ``laws`` the paper's laws, basic solutions and
+baseline structures, ``objectives`` the objectives of a flight, ``sample_set`` the objectives
+over the seeded sample set (statistics, racing), ``reports`` the run reports and the cached
+bound, ``problems`` the recipes and the registered synthesis problems; the studies: ``flight``
+closed-loop flights and plots, ``bound`` the best open-loop program, ``robustness`` the
+dispersion study, ``robust_study`` the held-out study of guidance laws, ``oracle`` the
+per-sample bound, ``cli`` its commands -- and ``tests/test_reentry_*.py``.  The generic pieces
+it uses: the NetworkOperatorController and ProgramController FMUs, ``synthesis.methods``
+(network operator, GA, open loop).
 """
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
-from descent_fmus.synthesis.systems.reentry import cli, problems, sensed
-
-
-def _problems() -> tuple:
-    """The nominal problems and the robust guidance problems with sensed drag."""
-    return problems.problems() + sensed.problems()
-
+from descent_fmus.synthesis.systems.reentry import cli, guidance, problems, wiring
 
 SYSTEM = System(
     stem="reentry",
@@ -25,13 +24,14 @@ SYSTEM = System(
           "controllers.drag_estimator:SensedNetworkOperatorController",
           "controllers.reentry_npc:ReentryNPC",
           "controllers.reentry_npc:GuidedNetworkOperatorController"),
-    closed_loops=(ClosedLoopSpec(problems.WIRING, parameters=problems.LOOP_PARAMETERS),
-                  ClosedLoopSpec(sensed.SENSED_WIRING, parameters=sensed.SENSED_LOOP_PARAMETERS,
-                                 controller_defaults=sensed.default_law_values),
-                  ClosedLoopSpec(sensed.NPC_WIRING, parameters=sensed.NPC_LOOP_PARAMETERS),
-                  ClosedLoopSpec(sensed.GUIDED_WIRING,
-                                 parameters=sensed.GUIDED_LOOP_PARAMETERS,
-                                 controller_defaults=sensed.default_guided_law_values)),
-    problems=_problems,
+    closed_loops=(ClosedLoopSpec(wiring.WIRING, parameters=wiring.LOOP_PARAMETERS),
+                  ClosedLoopSpec(guidance.SENSED_WIRING,
+                                 parameters=guidance.SENSED_LOOP_PARAMETERS,
+                                 controller_defaults=guidance.default_law_values),
+                  ClosedLoopSpec(guidance.NPC_WIRING, parameters=guidance.NPC_LOOP_PARAMETERS),
+                  ClosedLoopSpec(guidance.GUIDED_WIRING,
+                                 parameters=guidance.GUIDED_LOOP_PARAMETERS,
+                                 controller_defaults=guidance.default_guided_law_values)),
+    problems=problems.problems,
     add_commands=cli.add_commands,
 )

@@ -141,7 +141,8 @@ def run_robustness(args) -> int:
     from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
                                                                       robust_study, table_lines)
 
-    from descent_fmus.synthesis.systems.reentry.sensed import as_guided, reads_correction
+    from descent_fmus.synthesis.systems.reentry.guidance import reads_correction
+    from descent_fmus.synthesis.systems.reentry.laws import as_guided
 
     bad = [g for g in args.gate if g < 0.0]
     if bad:

@@ -9,7 +9,8 @@ from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, ClosedLoopResult
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.plotting import save_figure
-from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry.objectives import objectives
+from descent_fmus.synthesis.systems.reentry.wiring import WIRING, plant_values
 
 __all__ = ["SCENARIOS", "scenario_params", "ReentryFlight", "load_loop", "fly", "plot_flight"]
 
@@ -42,7 +43,7 @@ class ReentryFlight:
 def load_loop(fmu_dir=None, record=RECORD) -> ClosedLoop:
     """The Reentry + NetworkOperatorController closed loop, loaded once (reset per flight)."""
     d = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
-    return ClosedLoop(spec.WIRING, d / "Reentry.fmu", d / "NetworkOperatorController.fmu",
+    return ClosedLoop(WIRING, d / "Reentry.fmu", d / "NetworkOperatorController.fmu",
                       record=record)
 
 
@@ -54,11 +55,11 @@ def fly(law: NetworkOperator, scenario: str = "default", params: ReentryParams |
     own = loop is None
     loop = loop or load_loop(fmu_dir)
     try:
-        res = loop.run(spec.plant_values(p), law.start_values(), record=record, step=step)
+        res = loop.run(plant_values(p), law.start_values(), record=record, step=step)
     finally:
         if own:
             loop.close()
-    return ReentryFlight(law, p, res, spec.objectives(res.final, p))
+    return ReentryFlight(law, p, res, objectives(res.final, p))
 
 
 def plot_flight(flight: ReentryFlight, path, label: str | None = None) -> Path:

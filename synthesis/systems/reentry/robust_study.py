@@ -28,9 +28,16 @@ import numpy as np
 from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.systems.reentry import problems as spec
-from descent_fmus.synthesis.systems.reentry import sensed
+from descent_fmus.synthesis.systems.reentry.guidance import (GUIDED_WIRING, NPC_WIRING,
+                                                             SENSED_WIRING,
+                                                             reads_correction,
+                                                             reads_estimate)
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
+from descent_fmus.synthesis.systems.reentry.objectives import objectives
+from descent_fmus.synthesis.systems.reentry.sample_set import (SYNTHESIS_SAMPLES,
+                                                               SYNTHESIS_SEED,
+                                                               synthesis_set)
+from descent_fmus.synthesis.systems.reentry.wiring import WIRING, plant_values
 
 __all__ = ["SCENARIOS", "held_out_samples", "robust_study", "stats", "table_lines",
            "plot_robust_study", "NPC", "PROGRAM", "ORACLE", "BASIC", "HELD_OUT_SEED"]
@@ -40,7 +47,7 @@ SCENARIOS = {"default": ReentryParams(), "second": SECOND_SCENARIO}
 #: Names of the built-in guidance options.
 NPC, PROGRAM, ORACLE, BASIC = ("NPC guidance", "open-loop program (blind)", "oracle bound",
                                "basic law (paper q)")
-#: Default seed of the held-out set (the synthesis set uses sensed.SYNTHESIS_SEED).
+#: Default seed of the held-out set (the synthesis set uses sample_set.SYNTHESIS_SEED).
 HELD_OUT_SEED = 7
 
 
@@ -59,8 +66,8 @@ def _key(p: ReentryParams) -> tuple:
 
 
 def disjoint_from_synthesis(params) -> bool:
-    """No sample of ``params`` is a point of the synthesis set (sensed.synthesis_set)."""
-    used = {_key(p) for p in sensed.synthesis_set()}
+    """No sample of ``params`` is a point of the synthesis set (sample_set.synthesis_set)."""
+    used = {_key(p) for p in synthesis_set()}
     return not any(_key(p) in used for p in params)
 
 
@@ -92,7 +99,7 @@ def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise
             cv.update(_sensing(noise, bias, k, seed))
             if per_sample is not None:
                 cv.update(per_sample(p))
-            rows.append(spec.objectives(loop.run(spec.plant_values(p), cv).final, p))
+            rows.append(objectives(loop.run(plant_values(p), cv).final, p))
     return rows
 
 
@@ -102,26 +109,26 @@ def fly_law(law: NetworkOperator, params, fmu_dir, noise: float = 0.0, bias: flo
     correction c, with the controller parameters ``guidance`` (e.g. ``correction_gate``) over
     the law's own; the sensed wiring if it reads y3)."""
     fmu_dir = Path(fmu_dir)
-    if sensed.reads_correction(law):
-        return _fly_loop(sensed.GUIDED_WIRING, fmu_dir, "Reentry.fmu",
+    if reads_correction(law):
+        return _fly_loop(GUIDED_WIRING, fmu_dir, "Reentry.fmu",
                          "GuidedNetworkOperatorController.fmu", params,
                          {**law.start_values(), **(guidance or {})}, noise, bias, seed,
                          per_sample=lambda p: {"h0_line": p.h0})
     if guidance:
         raise ValueError(f"guidance parameters {sorted(guidance)} need a law that reads the "
                          f"correction c")
-    if sensed.reads_estimate(law):
-        return _fly_loop(sensed.SENSED_WIRING, fmu_dir, "Reentry.fmu",
+    if reads_estimate(law):
+        return _fly_loop(SENSED_WIRING, fmu_dir, "Reentry.fmu",
                          "SensedNetworkOperatorController.fmu", params, law.start_values(),
                          noise, bias, seed)
-    return _fly_loop(spec.WIRING, fmu_dir, "Reentry.fmu", "NetworkOperatorController.fmu",
+    return _fly_loop(WIRING, fmu_dir, "Reentry.fmu", "NetworkOperatorController.fmu",
                      params, law.start_values(), 0.0, 0.0, seed)
 
 
 def fly_npc(params, fmu_dir, noise: float = 0.0, bias: float = 0.0, seed: int = 0,
             controller_values: dict | None = None) -> list:
     """Objectives of the NPC guidance on every sample."""
-    return _fly_loop(sensed.NPC_WIRING, Path(fmu_dir), "Reentry.fmu", "ReentryNPC.fmu", params,
+    return _fly_loop(NPC_WIRING, Path(fmu_dir), "Reentry.fmu", "ReentryNPC.fmu", params,
                      controller_values or {}, noise, bias, seed)
 
 
@@ -151,7 +158,7 @@ def robust_study(laws: dict, samples: int, seed: int, fmu_dir, scenarios=("defau
     options = dict(laws)
     options.setdefault(BASIC, paper_basic_law())
     out = {"samples": samples, "seed": seed, "scenarios": {},
-           "synthesis_set": {"samples": sensed.SYNTHESIS_SAMPLES, "seed": sensed.SYNTHESIS_SEED,
+           "synthesis_set": {"samples": SYNTHESIS_SAMPLES, "seed": SYNTHESIS_SEED,
                              "design": "nominal + uniform"},
            "held_out_set": {"samples": samples, "seed": seed, "design": "uniform"},
            "noise": noise, "bias": bias}
@@ -169,7 +176,7 @@ def robust_study(laws: dict, samples: int, seed: int, fmu_dir, scenarios=("defau
             results[NPC] = fly_npc(every, fmu_dir, noise, bias, seed)
         prog = (programs or {}).get(name)
         if prog is not None:
-            results[PROGRAM] = [spec.objectives(replay_program(prog, fmu_dir, p), p)
+            results[PROGRAM] = [objectives(replay_program(prog, fmu_dir, p), p)
                                 for p in every]
         sc = {"params": [asdict(p) for p in params],
               "nominal": {n: rows[0] for n, rows in results.items()},

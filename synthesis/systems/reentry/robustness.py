@@ -18,7 +18,8 @@ import numpy as np
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.problems.dispersion import Box
-from descent_fmus.synthesis.systems.reentry import problems as spec
+from descent_fmus.synthesis.systems.reentry.objectives import objectives
+from descent_fmus.synthesis.systems.reentry.wiring import WIRING, plant_values
 
 __all__ = ["dispersion_box", "dispersion_samples", "dispersion_study", "plot_study"]
 
@@ -52,16 +53,16 @@ def dispersion_study(laws: dict, program, samples: int, seed: int, fmu_dir) -> d
     fmu_dir = Path(fmu_dir)
     params = dispersion_samples(samples, seed)
     results = {}
-    with ClosedLoop(spec.WIRING, fmu_dir / "Reentry.fmu",
+    with ClosedLoop(WIRING, fmu_dir / "Reentry.fmu",
                     fmu_dir / "NetworkOperatorController.fmu") as loop:
         for name, law in laws.items():
             sv = law.start_values()
-            results[name] = [spec.objectives(loop.run(spec.plant_values(p), sv).final, p)
+            results[name] = [objectives(loop.run(plant_values(p), sv).final, p)
                              for p in params]
     if program is not None:
         from descent_fmus.synthesis.systems.reentry.bound import replay_program
         results["open-loop program (blind)"] = [
-            spec.objectives(replay_program(program, fmu_dir, p), p) for p in params]
+            objectives(replay_program(program, fmu_dir, p), p) for p in params]
     return {"params": [asdict(p) for p in params], "results": results,
             "stats": {k: _stats(v) for k, v in results.items()}}
 
