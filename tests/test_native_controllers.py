@@ -20,6 +20,7 @@ from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
 from descent_fmus.models.controllers.network_operator import BINARY, UNARY
+from descent_fmus.models.controllers.program_table import program_values
 from descent_fmus.synthesis.fmi.closed_loop import load_slave
 from descent_fmus.synthesis.fmi.native.build import find_compiler
 from descent_fmus.synthesis.fmi.native.controllers import NATIVE_CONTROLLERS
@@ -132,9 +133,15 @@ BAD_NO = [{"nx": 9}, {"nq": -1}, {"nu": 0}, {"u_min[1]": 1.0}, {"u_max[1]": math
           {"psi[3,3]": 1}, {"psi[1,3]": 1}, {"psi[1,9]": 29}, {"out[1]": 33}, {"nu": 2},
           {"sample_period": -1.0}, {"sample_period": math.inf},
           {"u_min[1]": 1e-05, "u_max[1]": 1e-06}]
+#: ... and of the ProgramController
+BAD_PROGRAM = [{"n_nodes": 1}, {"n_nodes": 300}, {"grid": 2}, {"t_end": -1.0},
+               {"t_end": math.nan}, {"grid": 1}, {"grid": 1, "t_node[1]": 0.0,
+                                                  "t_node[2]": math.inf},
+               {"table[2,3]": math.inf}]
 
 
-@pytest.mark.parametrize("name,cases", [("NetworkOperatorController", BAD_NO)])
+@pytest.mark.parametrize("name,cases", [("NetworkOperatorController", BAD_NO),
+                                        ("ProgramController", BAD_PROGRAM)])
 def test_errors_are_named_as_the_python_controller_names_them(pair, name, cases):
     (py, py_log), (c, c_log) = pair(name)
     for case in cases:
@@ -167,6 +174,30 @@ def test_twin_has_the_pythonfmu_variables(native, fmu_dir, name):
         assert g[:3] == (kind, causality, variability) and g[4:] == (description, unit), n
         assert g[3] == s or causality == "output", n
     assert validate_fmu(str(native[name])) == []
+
+
+def test_program_twin_equals_the_program_controller(pair):
+    # 12 random programs (2..257 nodes, 1..6 channels, uniform grid or node times, sampled or
+    # not), 200 uneven steps across the nodes and past the end: u and du bitwise equal
+    (py, _), (c, _) = pair("ProgramController")
+    rng = np.random.default_rng(3)
+    names = [f"u[{j}]" for j in range(1, 7)] + [f"du[{j}]" for j in range(1, 7)]
+    for case in range(12):
+        n, ch = int(rng.integers(2, 258)), int(rng.integers(1, 7))
+        times = np.cumsum(rng.uniform(0.01, 2.0, n)) - 0.5 if case % 2 else None
+        values = program_values(float(rng.uniform(1, 100)), rng.normal(0, 1, (n, ch)).tolist(),
+                                times)
+        values["sample_period"] = 0.75 if case % 3 == 0 else 0.0
+        runs = []
+        for fmu in (py, c):
+            vr = start(fmu, values)
+            t, seq = 0.0, []
+            for h in np.random.default_rng(case).uniform(0.01, 3.0, 200):
+                seq.append([bits(v) for v in fmu.getReal([vr[m] for m in names])])
+                fmu.doStep(t, float(h))
+                t += float(h)
+            runs.append(seq)
+        assert runs[0] == runs[1], case
 
 
 @pytest.mark.parametrize("name", sorted(NATIVE_CONTROLLERS))

@@ -116,7 +116,7 @@ def test_bad_tables(tmp_path):
     try:
         with pytest.raises(Exception):
             start(fmu, {"t_end": -1.0})
-        assert "parameter t_end must be > 0 s, got -1" in log[-1]
+        assert "parameter t_end must be > 0, got -1.0" in log[-1]    # the Python words
         with pytest.raises(Exception):
             start(fmu, {"n_nodes": 3})
         assert "n_nodes must be in 2..2, got 3" in log[-1]

@@ -11,6 +11,7 @@ are generated here (``model_config.h``).
 * :func:`build_network_operator_controller` -- ``NetworkOperatorController``: the matrix
   interpreter (``c/no_interp.c``) reading ``psi[i,j]``, ``nx``, ``nq``, ``nu``, ``out[k]`` and
   ``q[k]`` as parameters; a candidate law is a set of start values, never a compile;
+* :func:`build_program_controller` -- ``ProgramController`` (the table player).
 
 :data:`NATIVE_CONTROLLERS` names the builders by model identifier (``build_fmus.py`` builds them
 into ``fmus/native/``).
@@ -23,8 +24,9 @@ from pathlib import Path
 from descent_fmus.synthesis.fmi.native.build import Variable, build_fmu
 from descent_fmus.synthesis.fmi.native.ccode import interpreter_operations_h
 
-__all__ = ["slave_variables", "layout_config", "build_network_operator_controller",
-           "NATIVE_CONTROLLERS", "build_native_controllers"]
+__all__ = ["slave_variables", "layout_config", "program_layout",
+           "build_network_operator_controller", "build_program_controller", "NATIVE_CONTROLLERS",
+           "build_native_controllers"]
 
 #: Hand-written C files every twin of a network-operator controller ships.
 NO_FILES = ("no_interp.c", "no_interp.h")
@@ -103,8 +105,32 @@ def build_network_operator_controller(dest, compiler: str | None = None) -> Path
                        {"no_operations.h": interpreter_operations_h()}, compiler)
 
 
+def build_program_controller(dest, compiler: str | None = None) -> Path:
+    """The native ``ProgramController`` (the table player ``c/table_model.c``, with the node
+    times ``t_node[i]`` of ``grid`` = 1)."""
+    from descent_fmus.models.controllers.program_table import (N_CHANNELS, NODES_MAX,
+                                                               ProgramController)
+
+    def config(variables):
+        return program_layout(variables, NODES_MAX, N_CHANNELS, grid=True)
+    return _build_twin(ProgramController, dest, "table_model.c", config, compiler=compiler)
+
+
+def program_layout(variables, nodes: int, channels: int, grid: bool) -> str:
+    """``model_config.h`` of a piecewise-linear program (``c/table_model.c``, kind 0) with the
+    ProgramController's variable names; ``grid``: it has ``grid`` and ``t_node[i]``."""
+    names = {"VR_U": "u[1]", "VR_DU": "du[1]", "VR_TEND": "t_end", "VR_TABLE": "table[1,1]",
+             "VR_SAMPLE": "sample_period", "IX_N": "n_nodes"}
+    if grid:
+        names.update(VR_TNODE="t_node[1]", IX_GRID="grid")
+    return layout_config(variables, names, {"TABLE_KIND": 0, "TABLE_NODES": nodes,
+                                            "TABLE_CHANNELS": channels,
+                                            "TABLE_GRID": int(grid)})
+
+
 #: The native twins by model identifier.
-NATIVE_CONTROLLERS = {"NetworkOperatorController": build_network_operator_controller}
+NATIVE_CONTROLLERS = {"NetworkOperatorController": build_network_operator_controller,
+                      "ProgramController": build_program_controller}
 
 
 def build_native_controllers(out_dir, names=None, compiler: str | None = None,

@@ -2,8 +2,9 @@
 
 * :func:`build_program_fmu` -- a piecewise-linear program on a uniform grid with its slopes,
   the variables of the pythonfmu ``ProgramController`` (``n_nodes``, ``t_end``, ``table[i,j]``,
-  outputs ``u[j]``, ``du[j]``): the S4 gimbal-rate programs of the direct method and the S1
-  open-loop program would play with linear ramps).
+  outputs ``u[j]``, ``du[j]``) sized to the program: the S4 gimbal-rate programs of the direct
+  method and the S1 open-loop program would play with linear ramps).  Its player is the one of
+  the native ``ProgramController`` (:mod:`.controllers`), which also has ``grid``/``t_node``.
 * :func:`build_step_program_fmu` -- a piecewise-constant program between breakpoints whose
   output is its mean over the coming communication step (the pythonfmu ``LandingProgram``'s
   averaged control): the S3 landing program is the table ``t = (0, t_switch, t_off)``,
@@ -20,6 +21,7 @@ from pathlib import Path
 from descent_fmus.models.fmu_support import SAMPLE_PERIOD_DESCRIPTION
 from descent_fmus.synthesis.fmi.native.build import Variable, build_fmu
 from descent_fmus.synthesis.fmi.native.ccode import c_identifier
+from descent_fmus.synthesis.fmi.native.controllers import program_layout
 
 __all__ = ["build_program_fmu", "build_step_program_fmu", "landing_program_fmu",
            "hold_program_fmu", "program_of_start_values"]
@@ -48,9 +50,9 @@ def _per_second(unit: str) -> str:
     return f"{num}/{den}.s"
 
 
-def _config(kind: int, nodes: int, channels: int) -> dict:
+def _step_config(nodes: int, channels: int) -> dict:
     return {"model_config.h": "/* the table's kind and size for table_model.c (generated) */\n"
-                              f"#define TABLE_KIND {kind}\n#define TABLE_NODES {nodes}\n"
+                              f"#define TABLE_KIND 1\n#define TABLE_NODES {nodes}\n"
                               f"#define TABLE_CHANNELS {channels}\n"}
 
 
@@ -76,8 +78,9 @@ def build_program_fmu(dest, t_end: float, controls, identifier: str = "ProgramTa
     variables.append(Variable("n_nodes", "fixed", n, f"number of grid nodes in the table "
                               f"(2..{n}) [1]", type="Integer"))
     ident = c_identifier(identifier)
+    config = {"model_config.h": program_layout(variables, n, c, grid=False)}
     return build_fmu(dest, ident, description or "piecewise-linear program u(t) on a uniform "
-                     "grid (values and slopes)", variables, _config(0, n, c),
+                     "grid (values and slopes)", variables, config,
                      ["table_model.c"], experiment={"startTime": 0.0, "stopTime": t_end})
 
 
@@ -112,7 +115,7 @@ def build_step_program_fmu(dest, times, values, identifier: str = "StepProgram",
                               type="Integer"))
     return build_fmu(dest, c_identifier(identifier), description or "piecewise-constant program "
                      "averaged over the coming communication step", variables,
-                     _config(1, n, c), ["table_model.c"])
+                     _step_config(n, c), ["table_model.c"])
 
 
 def landing_program_fmu(dest, t_switch: float, t_off: float, umax: float, step: float,
