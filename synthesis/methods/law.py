@@ -24,6 +24,16 @@ from descent_fmus.models.controllers.network_operator import (BIG, BINARY_NAMES,
 __all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError"]
 
 
+#: Names of the generic controller FMU's variables a law sets (NetworkOperator.start_values).
+_FMU_NAMES = {
+    "upper": np.triu_indices(L_MAX),
+    "psi": [f"psi[{i + 1},{j + 1}]" for i, j in zip(*np.triu_indices(L_MAX))],
+    "q": [f"q[{k + 1}]" for k in range(NQ_MAX)],
+    "bounds": [(f"u_min[{k + 1}]", f"u_max[{k + 1}]", f"out[{k + 1}]") for k in range(NU_MAX)],
+    "scaling": [(f"x_scale[{k + 1}]", f"x_offset[{k + 1}]") for k in range(NX_MAX)],
+}
+
+
 class CapacityError(MatrixError):
     """The law is larger than the generic controller FMU holds (sizes fixed at build time)."""
 
@@ -215,19 +225,22 @@ class NetworkOperator:
             if n > cap:
                 raise CapacityError(f"the law has {n} {what}; the NetworkOperatorController "
                                     f"FMU holds at most {cap} (sizes are fixed at build time)")
+        # once per candidate on the evaluation's hot path: the names are made once per process
+        # and the matrix is read as one array (the upper triangle, row by row: psi[1,1],
+        # psi[1,2], ..., the order of the controller's variables)
+        names = _FMU_NAMES
         vals = {"nx": self.nx, "nq": len(self.q), "nu": len(self.outputs)}
-        for i in range(L_MAX):
-            for j in range(i, L_MAX):
-                vals[f"psi[{i + 1},{j + 1}]"] = int(self.psi[i, j]) if j < L else 0
-        for k in range(NQ_MAX):
-            vals[f"q[{k + 1}]"] = self.q[k] if k < len(self.q) else 0.0
-        for k in range(NU_MAX):
+        full = np.zeros((L_MAX, L_MAX), dtype=np.int64)
+        full[:L, :L] = self.psi
+        vals.update(zip(names["psi"], full[names["upper"]].tolist()))
+        vals.update(zip(names["q"], self.q + [0.0] * (NQ_MAX - len(self.q))))
+        for k, (lo_name, hi_name, out_name) in enumerate(names["bounds"]):
             lo, hi = self.bounds[k] if k < len(self.outputs) else (0.0, 0.0)
-            vals[f"u_min[{k + 1}]"], vals[f"u_max[{k + 1}]"] = lo, hi
-            vals[f"out[{k + 1}]"] = self.outputs[k] if k < len(self.outputs) else 0
-        for k in range(NX_MAX):
-            vals[f"x_scale[{k + 1}]"] = self.input_scale[k] if k < self.nx else 1.0
-            vals[f"x_offset[{k + 1}]"] = self.input_offset[k] if k < self.nx else 0.0
+            vals[lo_name], vals[hi_name] = lo, hi
+            vals[out_name] = self.outputs[k] if k < len(self.outputs) else 0
+        for k, (scale_name, offset_name) in enumerate(names["scaling"]):
+            vals[scale_name] = self.input_scale[k] if k < self.nx else 1.0
+            vals[offset_name] = self.input_offset[k] if k < self.nx else 0.0
         return vals
 
     # -- persistence ----------------------------------------------------------------------
