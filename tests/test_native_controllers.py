@@ -215,3 +215,102 @@ def test_no_python_in_the_binary(native, name, tmp_path):
     assert not [s for s in symbols if s.startswith(("Py", "_Py")) or "python" in s.lower()]
     exported = {line.split()[-1] for line in dyn.splitlines() if " T " in line}
     assert "fmi2DoStep" in exported and all(s.startswith("fmi2") for s in exported)
+
+
+# -- the closed loop of native FMUs: one call per flight -------------------------------------------
+def s1_laws(n_random: int = 12) -> list:
+    """S1 laws: the GA's basic solution, the paper's basic and published laws, the committed
+    best law, and ``n_random`` structural variations of the basic solution (the GA's own
+    variation operator, 8 variations each, q perturbed)."""
+    from descent_fmus.synthesis.methods.encoding import StructureCodec
+    from descent_fmus.synthesis.systems.reentry.laws import (paper_basic_law, paper_law,
+                                                             synthesis_basic_law)
+    from test_native_law import REENTRY_LAW
+    basic = synthesis_basic_law()
+    codec = StructureCodec(basic.size, basic.nx + len(basic.q))
+    rng = np.random.default_rng(11)
+    out = [basic, paper_basic_law(), paper_law(), NetworkOperator.load(REENTRY_LAW)]
+    for _ in range(n_random):
+        psi = codec.apply(basic.psi, [codec.random(rng) for _ in range(8)])
+        out.append(basic.with_structure(psi, list(np.asarray(basic.q) *
+                                                  rng.uniform(0.5, 1.5, len(basic.q)))))
+    return out
+
+
+@pytest.fixture(scope="module")
+def twin_dir(fmu_dir, native, tmp_path_factory):
+    """An FMU folder with the reentry problem's FMUs and their native twins in ``native/``: the
+    built native plant if there is one (``fmus/native/Reentry.fmu``), else the pythonfmu plant
+    standing in for it (the loop is then half native: the test is of the path, not of the
+    plant)."""
+    d = tmp_path_factory.mktemp("fmus")
+    (d / "native").mkdir()
+    for name in ("Reentry", "NetworkOperatorController"):
+        shutil.copy(fmu_dir / f"{name}.fmu", d / f"{name}.fmu")
+    plant = fmu_dir / "native" / "Reentry.fmu"
+    shutil.copy(plant if plant.is_file() else fmu_dir / "Reentry.fmu", d / "native" / "Reentry.fmu")
+    shutil.copy(native["NetworkOperatorController"], d / "native")
+    return d
+
+
+def test_runner_chooses_the_native_path_when_the_twins_exist(twin_dir, fmu_dir, tmp_path):
+    from descent_fmus.synthesis.paths import FMUNotFoundError
+    from descent_fmus.synthesis.problems.runner import Runner
+    from descent_fmus.synthesis.systems.reentry.wiring import WIRING
+    fmus = (twin_dir / "Reentry.fmu", twin_dir / "NetworkOperatorController.fmu")
+    assert Runner().choose(WIRING, *fmus)[0] == "native-container"
+    assert Runner().choose(WIRING, *fmus, record=("h",))[0] == "native-master"
+    assert Runner(native=False).choose(WIRING, *fmus)[0] == "master"
+    assert Runner(native=False, container=True).choose(WIRING, *fmus)[0] == "container"
+    (tmp_path / "Reentry.fmu").write_bytes(b"")                  # no twins here
+    none = (tmp_path / "Reentry.fmu", tmp_path / "NetworkOperatorController.fmu")
+    assert Runner().choose(WIRING, *none)[0] == "master"
+    with pytest.raises(FMUNotFoundError, match="native/"):
+        Runner(native=True).choose(WIRING, *none)
+    loop = Runner().load(WIRING, *fmus)
+    try:
+        assert loop.path == "native-container"
+    finally:
+        loop.close()
+
+
+def test_native_loop_equals_the_pythonfmu_master(twin_dir, fmu_dir):
+    # 16 S1 laws, nominal flight: every final plant output (status, load_max = J1, L at hf, ...)
+    # of the native loop equals the Python master's with the pythonfmu FMUs, bitwise; a second
+    # run of the same loop (after a reset) too
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem("reentry")
+    state = problem.initial_states[0]
+    laws = s1_laws()
+    with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu",
+                    fmu_dir / "NetworkOperatorController.fmu") as master:
+        want = [master.run(state, law.start_values()).final for law in laws]
+    with NativeContainerLoop(problem.wiring, twin_dir / "native" / "Reentry.fmu",
+                             twin_dir / "native" / "NetworkOperatorController.fmu") as loop:
+        for _ in range(2):
+            got = [loop.run(state, law.start_values()).final for law in laws]
+            assert got == want
+    assert {f["status"] for f in want} >= {1}
+
+
+def test_evaluator_native_path_gives_the_pythonfmu_objectives(twin_dir, fmu_dir):
+    # the evaluator (in-process backend) on the native path and on the pythonfmu path: the same
+    # objectives and constraint violations for 16 S1 laws, to the last bit
+    from dataclasses import replace
+
+    from descent_fmus.synthesis.problems.runner import Runner
+    from descent_fmus.synthesis.registry import get_problem
+    from descent_fmus.synthesis.run.evaluation import Evaluator
+    problem = get_problem("reentry")
+    laws = s1_laws()
+    res = {}
+    for native_path in (True, False):
+        p = replace(problem, runner=replace(problem.runner, native=native_path))
+        with Evaluator(p, twin_dir) as ev:
+            assert ev.backend.flyer.loop.path == ("native-container" if native_path
+                                                  else "master")
+            e = ev.evaluate(laws)
+            res[native_path] = (e.F.tolist(), list(e.cv))
+    assert res[True] == res[False]

@@ -307,6 +307,7 @@ class ClosedLoop:
         Plant outputs to record at every communication point (the connected ones are always
         available); controller outputs as ``"ctrl.<name>"``.
     """
+    path = "master"     # the closed-loop path in one word (the runner's "native-master": twins)
 
     def __init__(self, wiring: Wiring, plant_fmu, controller_fmu, record=()):
         self.wiring = wiring

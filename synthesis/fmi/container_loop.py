@@ -34,6 +34,9 @@ class ContainerLoop:
     (``plant.NAME`` / ``controller.NAME`` if both components have it).
     """
 
+    #: The closed-loop path, in one word (what a run reports).
+    path = "container"
+
     def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
         from fmpy import read_model_description
 

@@ -2,8 +2,14 @@
 
 By default every law flies from every initial state of its problem through
 :class:`synthesis.fmi.closed_loop.ClosedLoop` (the fmpy master stepping two FMUs).  A problem's
-:class:`Runner` may choose instead
+:class:`Runner` chooses instead
 
+* the **native path**, whenever the native (C) twins of the wiring's plant and controller are
+  built (``<fmu dir>/native/<identifier>.fmu``, ``build_fmus.py``): both inside fmpy's container
+  FMU, one call per flight, no Python in the flight
+  (:class:`synthesis.fmi.native_loop.NativeContainerLoop`); the same numbers as the pythonfmu
+  path.  ``native=False`` never takes it, ``native=True`` requires it (an error if the twins
+  are missing; with a recording, the Python master on the twins);
 * the **container path** (``container=True``): the closed loop as one fmpy container FMU,
   loaded once per process, reset per flight, one ``doStep`` over the whole horizon
   (:class:`synthesis.fmi.container_loop.ContainerLoop`);
@@ -11,6 +17,9 @@ By default every law flies from every initial state of its problem through
   ``proceed(flights so far)`` decides whether the law flies the rest.  A law that is bad on the
   first flights (e.g. the nominal one) does not fly the whole set; the problem's objective
   function receives the shorter list and must rank such a law behind every fully flown one.
+
+The loaded loop says which path it is in one word, its ``path``: ``"native-container"``,
+``"container"``, ``"master"`` (``"native-master"``: the master on the twins).
 
 Everything here pickles (worker processes, Dask): module-level callables only.
 """
@@ -20,6 +29,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, Wiring
+from descent_fmus.synthesis.fmi.native_loop import native_fmus
+from descent_fmus.synthesis.paths import FMUNotFoundError
 
 __all__ = ["Runner", "Race"]
 
@@ -40,17 +51,42 @@ class Race:
 
 @dataclass(frozen=True)
 class Runner:
-    """A problem's choice of closed-loop path and flights (see the module docstring)."""
+    """A problem's choice of closed-loop path and flights (see the module docstring):
+    ``native`` None (default) takes the native path where the twins are built, True requires
+    it, False never takes it."""
 
     container: bool = False
     race: Race | None = None
+    native: bool | None = None
+
+    def choose(self, wiring: Wiring, plant_fmu, controller_fmu, record=()) -> tuple:
+        """``(path, (plant FMU, controller FMU))``: the path :meth:`load` takes, in one word,
+        and the FMUs it flies (the native twins on a native path)."""
+        twins = native_fmus(wiring, plant_fmu, controller_fmu) if self.native is not False \
+            else None
+        if self.native and twins is None:
+            raise FMUNotFoundError(
+                f"the native path needs the native FMUs {wiring.plant}.fmu and "
+                f"{wiring.controller}.fmu in the folder native/ beside {plant_fmu} (python "
+                f"build_fmus.py builds them where a C compiler exists)")
+        if twins is not None:
+            return ("native-master" if record else "native-container"), twins
+        return ("container" if self.container and not record else "master"), \
+            (plant_fmu, controller_fmu)
 
     def load(self, wiring: Wiring, plant_fmu, controller_fmu, record=()):
-        """The loop the flights use, loaded once per process (recording needs the master)."""
-        if self.container and not record:
+        """The loop the flights use, loaded once per process (recording needs the master); its
+        ``path`` names it."""
+        path, fmus = self.choose(wiring, plant_fmu, controller_fmu, record)
+        if path == "native-container":
+            from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
+            return NativeContainerLoop(wiring, *fmus)
+        if path == "container":
             from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
-            return ContainerLoop(wiring, plant_fmu, controller_fmu)
-        return ClosedLoop(wiring, plant_fmu, controller_fmu, record=record)
+            return ContainerLoop(wiring, *fmus)
+        loop = ClosedLoop(wiring, *fmus, record=record)
+        loop.path = path
+        return loop
 
     def flights(self, loop, problem, law) -> list:
         """The flights of ``law`` (all initial states, or fewer if a race stopped it); each

@@ -1,0 +1,175 @@
+"""The closed loop of native (C) FMUs run in C: one call per flight.
+
+When the native twins of a wiring's plant and controller exist in ``<fmu dir>/native/``
+(``build_fmus.py`` builds them; same variable names, defaults and behaviour as the pythonfmu
+FMUs), a flight runs entirely in C: the two native FMUs inside fmpy's container FMU, whose one
+``doStep`` over the horizon steps them on the wiring's communication grid (the master algorithm
+of :mod:`synthesis.fmi.closed_loop`, so the same numbers as the Python master).
+
+:class:`NativeContainerLoop` is the :class:`~synthesis.fmi.container_loop.ContainerLoop` of those
+FMUs with the Python side of a flight cut to what changes per candidate: the FMI functions of the
+container's library are called directly, and the start values of a run are compared with the
+components' declared ones as arrays (a law's start values have the same names every time), so
+only those that differ are set -- one ``fmi2SetReal`` and one ``fmi2SetInteger`` per flight.
+
+:func:`native_fmus` says whether a wiring's native twins exist.
+"""
+from __future__ import annotations
+
+import ctypes
+import math
+from pathlib import Path
+
+import numpy as np
+
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
+from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
+
+__all__ = ["NativeContainerLoop", "native_fmus", "NATIVE_DIR"]
+
+#: The folder of the native FMUs inside the FMU folder.
+NATIVE_DIR = "native"
+
+_c_void_p, _c_size_t, _c_int, _c_double = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int,
+                                           ctypes.c_double)
+#: Prototypes taking addresses (ints) for the arrays: NumPy buffers are passed as they are.
+_SET = ctypes.CFUNCTYPE(_c_int, _c_void_p, _c_void_p, _c_size_t, _c_void_p)
+
+
+def native_fmus(wiring: Wiring, plant_fmu, controller_fmu) -> tuple[Path, Path] | None:
+    """The native twins ``(plant, controller)`` of the wiring's generic FMUs, or None.
+
+    The twins are ``<dir>/native/<identifier>.fmu`` beside the given FMUs, which must be the
+    wiring's own (``<dir>/<identifier>.fmu``): a problem flying another FMU (an exported
+    controller with other defaults, a user's plant) has no twin."""
+    out = []
+    for path, ident in ((Path(plant_fmu), wiring.plant), (Path(controller_fmu),
+                                                           wiring.controller)):
+        twin = path.parent / NATIVE_DIR / f"{ident}.fmu"
+        if path.stem != ident or not twin.is_file():
+            return None
+        out.append(twin)
+    return out[0], out[1]
+
+
+class _Layout:
+    """How the start values of one component reach the container: for a fixed sequence of
+    names, the value references and declared start values of its Reals and Integers."""
+
+    def __init__(self, loop: "NativeContainerLoop", role: str, names: tuple):
+        self.names = names
+        kinds, vrs, starts = [], [], []
+        for name in names:
+            cname = loop._names.get((role, name), name)
+            v = loop._vars.get(cname)
+            if v is None:
+                raise KeyError(f"{loop.wiring.name} has no parameter {cname!r}")
+            if v.type not in ("Real", "Integer", "Enumeration"):
+                raise TypeError(f"cannot set {v.type} variable {cname}")
+            kinds.append(v.type == "Real")
+            vrs.append(v.valueReference)
+            start = loop._starts.get(cname)
+            starts.append(math.nan if start is None else float(start))
+        kinds = np.array(kinds, dtype=bool)
+        self.real, self.int = np.flatnonzero(kinds), np.flatnonzero(~kinds)
+        vrs, starts = np.array(vrs, dtype=np.uint32), np.array(starts)
+        self.real_vr, self.int_vr = vrs[self.real], vrs[self.int]
+        self.real_start, self.int_start = starts[self.real], starts[self.int]
+
+    def split(self, values: dict) -> tuple:
+        """``(real vrs, reals, integer vrs, integers)`` of the values that differ from the
+        declared start values (a NaN start: always set)."""
+        v = np.fromiter(values.values(), float, len(self.names))
+        r, i = v[self.real], v[self.int]
+        if not np.isfinite(r).all():
+            bad = self.names[self.real[np.flatnonzero(~np.isfinite(r))[0]]]
+            raise ValueError(f"value of {bad} must be finite, got {values[bad]!r}")
+        dr, di = r != self.real_start, i != self.int_start
+        return (self.real_vr[dr], r[dr], self.int_vr[di],
+                np.ascontiguousarray(i[di], dtype=np.int32))
+
+
+class NativeContainerLoop(ContainerLoop):
+    """The closed loop of a plant and a controller (the native twins, or any FMI 2.0 FMUs) as
+    one fmpy container FMU run by direct calls; same ``run`` as
+    :class:`~synthesis.fmi.container_loop.ContainerLoop` (final outputs, no recording)."""
+
+    path = "native-container"
+
+    def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
+        super().__init__(wiring, plant_fmu, controller_fmu)
+        dll, self._c = self.fmu.dll, self.fmu.component
+        self._fn = {name: getattr(dll, name) for name in (
+            "fmi2Reset", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
+            "fmi2ExitInitializationMode", "fmi2DoStep", "fmi2GetReal", "fmi2GetInteger",
+            "fmi2GetBoolean")}
+        self._set_real = _SET(("fmi2SetReal", dll))
+        self._set_int = _SET(("fmi2SetInteger", dll))
+        self._layouts: dict = {}
+        self._out = {}
+        for kind, ctype in (("Real", ctypes.c_double), ("Integer", ctypes.c_int),
+                            ("Boolean", ctypes.c_int)):
+            vrs = self._out_vr[kind]
+            self._out[kind] = ((ctypes.c_uint * len(vrs))(*vrs), len(vrs),
+                               (ctype * len(vrs))(), self._out_names[kind])
+
+    def _layout(self, role: str, values: dict) -> _Layout:
+        names = tuple(values)
+        key = (role, names)
+        lay = self._layouts.get(key)
+        if lay is None:
+            if len(self._layouts) > 64:          # names of ad-hoc calls: keep a few only
+                self._layouts.clear()
+            lay = self._layouts[key] = _Layout(self, role, names)
+        return lay
+
+    def _set_values(self, role: str, values: dict) -> int:
+        status = 0
+        if not values:
+            return status
+        rv, r, iv, i = self._layout(role, values).split(values)
+        if len(rv):
+            status |= self._set_real(self._c, rv.ctypes.data, len(rv), r.ctypes.data)
+        if len(iv):
+            status |= self._set_int(self._c, iv.ctypes.data, len(iv), i.ctypes.data)
+        return status
+
+    def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
+            stop_time: float | None = None, record: bool = False, **_) -> ClosedLoopResult:
+        """One flight from t = 0 to the stop time in one ``doStep``; the final plant outputs."""
+        if record:
+            raise ValueError("the container path records no trajectory; use ClosedLoop")
+        t_end = self.wiring.stop_time if stop_time is None else float(stop_time)
+        fn, c = self._fn, self._c
+        del self.log[:]
+        if self._used and fn["fmi2Reset"](c) > 1:
+            self._fail("fmi2Reset")
+        self._used = True
+        if (self._set_values("plant", plant_values or {})
+                | self._set_values("controller", controller_values or {})) > 1:
+            self._fail("setting the start values")
+        if (fn["fmi2SetupExperiment"](c, 0, 0.0, 0.0, 1, t_end) > 1
+                or fn["fmi2EnterInitializationMode"](c) > 1
+                or fn["fmi2ExitInitializationMode"](c) > 1):
+            self._fail("initialisation")
+        if fn["fmi2DoStep"](c, 0.0, t_end, 1) > 1:
+            self._fail("doStep")
+        final = {}
+        for kind, getter, conv in (("Real", "fmi2GetReal", float),
+                                   ("Integer", "fmi2GetInteger", int),
+                                   ("Boolean", "fmi2GetBoolean", int)):
+            vrs, n, buf, names = self._out[kind]
+            if n:
+                if fn[getter](c, vrs, n, buf) > 1:
+                    self._fail("reading the outputs")
+                final.update(zip(names, buf) if kind == "Real" else zip(names, map(conv, buf)))
+        stop = self.wiring.stop
+        stopped = bool(stop is not None and stop.output in final and stop.holds(final[stop.output]))
+        return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final, stopped=stopped,
+                                steps=int(math.ceil(t_end / self.wiring.step - 1e-9)),
+                                t_final=t_end, start=dict(plant_values or {}))
+
+    def _fail(self, what: str):
+        said = "; ".join(m.strip() for m in self.log if m.strip())
+        raise FMUError(f"{self.wiring.name} ({self.path}): {what} failed"
+                       + (f": {said}" if said else ""))
