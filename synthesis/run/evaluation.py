@@ -7,7 +7,10 @@ turns the flights into objectives and a constraint violation
 the plant's Python: it is built from FMU paths and a problem.  Where the laws fly is a backend's
 business (:mod:`synthesis.run.backends`: in-process, local processes, Dask); the rules are here:
 
-* identical candidates are not flown twice (cache);
+* identical candidates are not flown twice (a cache of the last :data:`CACHE_SIZE` laws' outcomes;
+  a law flown before is never counted as a new flight again, so a flight budget counts distinct
+  laws, and a resumed run, which starts with an empty cache, counts exactly as an uninterrupted
+  one: the fingerprints of the flown laws are part of the run's checkpoint);
 * a failing candidate (an FMU error, a worker that dies) is retried once, then given the
   problem's penalty -- never a crash, never a NaN;
 * a failure that hits a whole batch is no candidate's fault (a broken FMU, a wrong wiring,
@@ -16,7 +19,10 @@ business (:mod:`synthesis.run.backends`: in-process, local processes, Dask); the
 """
 from __future__ import annotations
 
+import hashlib
+import struct
 import weakref
+from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -29,7 +35,10 @@ from descent_fmus.synthesis.run.backends import (Backend, SchedulerError, chunk_
 from descent_fmus.synthesis.run.signals import check_stop
 
 __all__ = ["Evaluator", "Evaluation", "SchedulerError", "SystematicFailure", "chunk_size",
-           "law_key"]
+           "law_key", "CACHE_SIZE"]
+
+#: Outcomes kept in the evaluator's cache (the most recently used; a few hundred bytes each).
+CACHE_SIZE = 100_000
 
 
 class SystematicFailure(RuntimeError):
@@ -44,7 +53,7 @@ class SystematicFailure(RuntimeError):
 @dataclass
 class Evaluation:
     """Objective rows ``F`` (n x m), total constraint violations ``cv`` (n,), reported values
-    per law, and how many laws of the batch were flown (not taken from the cache)."""
+    per law, and how many laws of the batch were flown for the first time in the run."""
 
     F: np.ndarray
     cv: np.ndarray
@@ -52,10 +61,16 @@ class Evaluation:
     flown: int
 
 
-def law_key(law) -> tuple:
-    """What makes two laws the same candidate (their flights are identical)."""
-    return (law.psi.tobytes(), law.psi.shape[0], tuple(law.q), tuple(law.outputs),
-            tuple(map(tuple, law.bounds)), tuple(law.input_scale), tuple(law.input_offset))
+def law_key(law) -> bytes:
+    """A 16-byte fingerprint of what makes two laws the same candidate (their flights are
+    identical): the matrix, the parameters, the outputs and bounds, the input scaling."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(struct.pack("<2q", *law.psi.shape))
+    h.update(law.psi.astype("<i8").tobytes())
+    for part in (law.q, law.outputs, [v for b in law.bounds for v in b], law.input_scale,
+                 law.input_offset):
+        h.update(struct.pack(f"<q{len(part)}d", len(part), *map(float, part)))
+    return h.digest()
 
 
 class Evaluator:
@@ -97,7 +112,9 @@ class Evaluator:
         self.fmus = tuple(str(require_fmu(f).resolve()) for f in problem.fmu_paths(fmu_dir))
         self.backend = backend or make_backend(problem, self.fmus, workers, scheduler,
                                                connect_timeout)
-        self.cache: dict = {}
+        self.cache: OrderedDict = OrderedDict()     # fingerprint -> Outcome, recent last
+        self.flown: set = set()                     # fingerprints of every law flown in the run
+        self.new_flown: list = []                   # ... of those not yet in a checkpoint
         self.simulated = 0
         self.failures = 0
         self.first_error: str | None = None
@@ -136,6 +153,7 @@ class Evaluator:
         check_stop()
         keys = [law_key(law) for law in laws]
         todo = list({k: law for k, law in zip(keys, laws) if k not in self.cache}.items())
+        first = 0
         if todo:
             results = self.backend.fly([law for _, law in todo])
             retry = [i for i, (o, _) in enumerate(results) if o is None]
@@ -149,12 +167,30 @@ class Evaluator:
                     self.first_error = self.first_error or err
                     outcome = self.problem.failed({"error": err or "unknown error"})
                 self.cache[k] = outcome
+                if k not in self.flown:
+                    self.flown.add(k)
+                    self.new_flown.append(k)
+                    first += 1
             self.simulated += len(todo)
-        rows = [self.cache[k] for k in keys]
+        rows = []
+        for k in keys:
+            self.cache.move_to_end(k)
+            rows.append(self.cache[k])
+        while len(self.cache) > CACHE_SIZE:
+            self.cache.popitem(last=False)
         F = np.array([o.f for o in rows], float).reshape(len(laws),
                                                          len(self.problem.objective_names))
         return Evaluation(F, np.array([o.cv for o in rows], float), [o.extras for o in rows],
-                          len(todo))
+                          first)
+
+    def restore_flown(self, fingerprints) -> None:
+        """The laws a resumed run had flown before its checkpoint (not new flights again)."""
+        self.flown.update(fingerprints)
+
+    def take_new_flown(self) -> list:
+        """The fingerprints flown since the last call (for the run's checkpoint)."""
+        out, self.new_flown = self.new_flown, []
+        return out
 
     def _judge(self, errors: list, batch: int) -> None:
         """Raise :class:`SystematicFailure` if this batch's failures are the setup's fault."""

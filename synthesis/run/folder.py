@@ -2,9 +2,12 @@
 
 * ``run.json`` -- what was asked (problem, its source, method, recipe); a different run refuses
   the folder, and ``--resume`` continues only the same run;
-* ``checkpoint.json`` -- the run loop's state at the last boundary (the method's state, the
+* ``checkpoint.json`` -- the run loop's state at the last checkpoint (the method's state, the
   archive, the flights spent); written atomically, so a killed run never leaves a half-written
-  file and resumes from the last one.
+  file and resumes from the last one;
+* ``flown.bin`` -- the 16-byte fingerprints of the laws flown so far, appended before each
+  checkpoint (a resumed run counts a law flown before the stop as no new flight, as the
+  uninterrupted run would); the checkpoint's flight count says how many of them it covers.
 """
 from __future__ import annotations
 
@@ -13,9 +16,12 @@ import os
 from dataclasses import asdict
 from pathlib import Path
 
-__all__ = ["RunDirError", "RunFolder", "write_json", "run_spec", "RUN_FILE", "CHECKPOINT"]
+__all__ = ["RunDirError", "RunFolder", "write_json", "run_spec", "RUN_FILE", "CHECKPOINT",
+           "FLOWN"]
 
-RUN_FILE, CHECKPOINT = "run.json", "checkpoint.json"
+RUN_FILE, CHECKPOINT, FLOWN = "run.json", "checkpoint.json", "flown.bin"
+#: Bytes of a law's fingerprint (:func:`synthesis.run.evaluation.law_key`).
+FINGERPRINT = 16
 
 
 class RunDirError(ValueError):
@@ -80,6 +86,28 @@ class RunFolder:
         write_json(self.run_file, spec)
         return None
 
-    def save(self, state: dict) -> None:
-        """Write the checkpoint (atomically)."""
+    def save(self, state: dict, new_flown=()) -> None:
+        """Append the fingerprints flown since the last checkpoint, then write the checkpoint
+        (atomically); ``state["simulated"]`` is the number of fingerprints it covers."""
+        flown = self.path / FLOWN
+        covered = state["simulated"]
+        # a stop between an append and its checkpoint leaves fingerprints the checkpoint does
+        # not cover: cut them before appending
+        if flown.exists() and flown.stat().st_size > (covered - len(new_flown)) * FINGERPRINT:
+            with open(flown, "r+b") as fh:
+                fh.truncate((covered - len(new_flown)) * FINGERPRINT)
+        if new_flown:
+            with open(flown, "ab") as fh:
+                fh.write(b"".join(new_flown))
+                fh.flush()
+                os.fsync(fh.fileno())
         write_json(self.checkpoint, state)
+
+    def flown(self, count: int) -> list:
+        """The first ``count`` fingerprints of ``flown.bin`` (what the checkpoint covers)."""
+        path = self.path / FLOWN
+        data = path.read_bytes()[:count * FINGERPRINT] if path.exists() else b""
+        if len(data) != count * FINGERPRINT:
+            raise RunDirError(f"{path} holds {len(data) // FINGERPRINT} flown laws, the "
+                              f"checkpoint counts {count}: the run folder was altered")
+        return [data[i:i + FINGERPRINT] for i in range(0, len(data), FINGERPRINT)]
