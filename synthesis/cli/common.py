@@ -110,8 +110,8 @@ def positive_float(text: str) -> float:
     return v
 
 
-def int_at_least(lo: int):
-    """An argparse type: an integer >= ``lo``."""
+def int_at_least(lo: int, hi: int | None = None):
+    """An argparse type: an integer >= ``lo`` (and <= ``hi``, a documented maximum)."""
     def convert(text: str) -> int:
         try:
             v = int(text)
@@ -119,8 +119,11 @@ def int_at_least(lo: int):
             raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
         if v < lo:
             raise argparse.ArgumentTypeError(f"must be >= {lo}, got {v}")
+        if hi is not None and v > hi:
+            raise argparse.ArgumentTypeError(f"must be <= {hi} (the documented maximum), "
+                                             f"got {v}")
         return v
-    convert.__name__ = f"integer >= {lo}"
+    convert.__name__ = f"integer >= {lo}" if hi is None else f"integer in {lo}..{hi}"
     return convert
 
 

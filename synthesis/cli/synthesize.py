@@ -10,7 +10,8 @@ import argparse
 from pathlib import Path
 
 from descent_fmus.synthesis.cli.common import (CliError, add_common_options, emit, fmu_folder,
-                                               positive_int)
+                                               int_at_least)
+from descent_fmus.synthesis.run.resources import MAX_WORKERS
 
 __all__ = ["add_synthesize_command", "load_problem", "run_synthesize", "apply_options"]
 
@@ -71,7 +72,8 @@ def add_synthesize_command(sub) -> None:
                    help="shorthand for --option statistic=NAME")
     p.add_argument("--wide-ops", action="store_true",
                    help="let variations use the authors' wider operation set (28 unary, 4 binary)")
-    p.add_argument("--workers", type=positive_int, default=2, help="local worker processes")
+    p.add_argument("--workers", type=int_at_least(1, MAX_WORKERS), default=2,
+                   help=f"local worker processes [1..{MAX_WORKERS}]")
     p.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT): evaluate on "
                    "that cluster instead of local processes (its workers need only the "
                    "installed package; the FMUs are shipped); 'local': a Dask LocalCluster of "
@@ -158,6 +160,7 @@ def run_synthesize(args) -> int:
     from descent_fmus.synthesis.paths import FMUNotFoundError
     from descent_fmus.synthesis.run.evaluation import SchedulerError, SystematicFailure
     from descent_fmus.synthesis.run.loop import RunDirError, run_synthesis
+    from descent_fmus.synthesis.run.resources import ResourceLimitError
 
     problem = apply_options(load_problem(args), args)
     try:
@@ -171,7 +174,8 @@ def run_synthesize(args) -> int:
                                 workers=args.workers, scheduler=args.scheduler,
                                 resume=args.resume, progress=not (args.quiet or args.json),
                                 export=_law_export(args), reference=not args.no_reference)
-    except (RunDirError, SchedulerError, FMUNotFoundError, SystematicFailure) as exc:
+    except (RunDirError, SchedulerError, FMUNotFoundError, SystematicFailure,
+            ResourceLimitError) as exc:
         raise CliError(str(exc)) from None
     emit(args, {k: v for k, v in summary.items() if k != "pareto"},
          "\n".join(_summary_lines(problem, args, summary)))

@@ -21,7 +21,14 @@ from descent_fmus.models.controllers.network_operator import (BIG, BINARY_NAMES,
                                                               NU_MAX, NX_MAX, UNARY_NAMES,
                                                               MatrixError, compile_law, evaluate)
 
-__all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError"]
+__all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError", "MAX_NODES",
+           "MAX_LAW_FILE_BYTES"]
+
+#: Most nodes of a law's matrix (the controller FMU holds L_MAX; in-process laws may be larger,
+#: up to this documented maximum: the evaluation is quadratic in the nodes).
+MAX_NODES = 1024
+#: Largest law file [bytes].
+MAX_LAW_FILE_BYTES = 4 * 1_048_576
 
 
 #: Names of the generic controller FMU's variables a law sets (NetworkOperator.start_values).
@@ -86,9 +93,21 @@ class NetworkOperator:
             raise MatrixError(f"matrix is not a rectangular array: {exc}") from None
         if psi.ndim != 2 or psi.shape[0] != psi.shape[1]:
             raise MatrixError(f"matrix must be square (L x L), got shape {psi.shape}")
+        if psi.shape[0] > MAX_NODES:
+            raise MatrixError(f"the matrix has {psi.shape[0]} nodes; the documented maximum is "
+                              f"{MAX_NODES}")
+        if isinstance(self.nx, bool) or not isinstance(self.nx, (int, np.integer)) \
+                or not 0 <= self.nx <= psi.shape[0]:
+            raise MatrixError(f"nx must be an integer in 0..{psi.shape[0]} (the inputs are "
+                              f"source nodes of the matrix), got {self.nx!r}")
+        self.nx = int(self.nx)
+        if len(self.q) > psi.shape[0] or (self.outputs is not None
+                                          and len(self.outputs) > psi.shape[0]):
+            raise MatrixError(f"more parameters or outputs than the matrix's "
+                              f"{psi.shape[0]} nodes")
         if psi.size and not np.all(np.isfinite(psi.astype(float))):
             raise MatrixError("matrix has non-finite entries")
-        if psi.size and not np.all(psi == np.round(psi)):
+        if psi.size and not (np.all(psi == np.round(psi)) and np.all(np.abs(psi) < 2 ** 31)):
             raise MatrixError("matrix entries must be integers (operation numbers)")
         self.psi = psi.astype(int)
         L = self.psi.shape[0]
@@ -274,6 +293,10 @@ class NetworkOperator:
 
     @classmethod
     def load(cls, path) -> "NetworkOperator":
+        size = Path(path).stat().st_size
+        if size > MAX_LAW_FILE_BYTES:
+            raise LawFileError(f"{path} has {size} bytes; a law file holds at most "
+                               f"{MAX_LAW_FILE_BYTES}")
         try:
             d = json.loads(Path(path).read_text())
         except json.JSONDecodeError as exc:

@@ -60,9 +60,11 @@ WIDE_UNARY, WIDE_BINARY = tuple(range(1, 29)), (1, 2, 3, 4)
 class GAConfig:
     """Sizes and rates of the variational GA."""
 
-    population: int = setting(256, "individuals in the population", 4, 100_000)
+    # [choice] maxima: the dominance counts of a population of n laws take n^2 (2 m + 1)
+    # bytes (150 MB at 5000 laws, 2 objectives); a generation's children are 4 crossovers
+    population: int = setting(256, "individuals in the population", 4, 5_000)
     crossovers: int = setting(32, "crossover attempts per generation (4 children each)",
-                              1, 100_000)
+                              1, 10_000)
     lchr: int = setting(8, "variations per individual (0 = parameters of the basic law only)",
                         0, 256)
     epoch: int = setting(12, "generations between changes of the basic solution", 1, 1_000_000)
@@ -70,7 +72,7 @@ class GAConfig:
     alpha: float = setting(0.4, "crossover probability (1 + alpha Lh) / (1 + Lh)", 0.0, 1e6)
     ksearch: int = setting(4, "tournament size for the first parent", 1, 1_000)
     elite_trim: int = setting(4, "Pareto members whose variation lists are trimmed per epoch",
-                              0, 1_000)
+                              0, 64)
     basis_rule: str = setting("compromise", "the epoch's new basis: 'compromise' (nearest the "
                               "utopia point, the lab's rule) or 'target' (best by the target)",
                               choices=("compromise", "target"))
@@ -252,6 +254,14 @@ class VariationalGA(Method):
 
     def status(self) -> dict:
         return {"gen": self.generation, "front": int(np.sum(self.lh == 0))}
+
+    @property
+    def phase(self) -> str:
+        if not self.pop:
+            return "flying the initial population"
+        if self.refinement is not None and (self.refinement.active or self._refine_due):
+            return "refining parameters by CMA-ES"
+        return "searching structures and parameters"
 
     # -- generation -----------------------------------------------------------------------
     def _tournament(self) -> int:

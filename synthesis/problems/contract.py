@@ -60,7 +60,7 @@ class Budget:
     """How much a run spends; the run loop ends at the first limit reached."""
 
     flights: int = setting(0, "flight budget: laws flown, each over all the problem's initial "
-                              "states (0 = none; a cma-* method needs one)", 0, 1_000_000_000)
+                              "states (0 = none; a cma-* method needs one)", 0, 10_000_000)
     generations: int = setting(400, "generations of the variational GA (a fixed-structure "
                                     "search ends by flights)", 0, 10_000_000)
     seconds: float = setting(0.0, "wall-clock budget [s] (0 = none): the run ends at the first "

@@ -22,9 +22,14 @@ from typing import Mapping
 
 import numpy as np
 
-__all__ = ["Box", "Interval", "METHODS"]
+from descent_fmus.synthesis.problems.limits import MAX_STATES
+
+__all__ = ["Box", "Interval", "METHODS", "MAX_SAMPLES"]
 
 #: Sampling designs of :meth:`Box.sample`.
+#: Most points a box gives (samples, or corners 2^d): the initial states of a problem are flown
+#: for every law, so more would make every evaluation, not only the run, unbounded.
+MAX_SAMPLES = MAX_STATES
 METHODS = ("uniform", "lhs", "corners")
 
 
@@ -128,6 +133,12 @@ class Box:
         if n < 1:
             raise ValueError(f"the number of samples must be >= 1, got {n}")
         d = len(self.intervals)
+        count = (2 ** d if method == "corners" else n) + (2 ** d if corners else 0)
+        if count > MAX_SAMPLES:
+            what = f"{d} dimensions, 2^{d} corners" if method == "corners" or corners else \
+                "samples"
+            raise ValueError(f"{count} points asked of the box ({what}); the documented "
+                             f"maximum is {MAX_SAMPLES}")
         if method == "corners":
             return [self.point(c) for c in itertools.product((-1.0, 1.0), repeat=d)]
         m = n - 1 if nominal_first else n

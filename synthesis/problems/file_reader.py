@@ -33,11 +33,14 @@ class Reader:
             raise self.error(key, f"must be a table, got {type(v).__name__}")
         return v
 
-    def items(self, d: dict, key: str, allowed: set):
-        """``(key[k], table)`` for every table of the non-empty list ``d[last part of key]``."""
+    def items(self, d: dict, key: str, allowed: set, most: int = 64):
+        """``(key[k], table)`` for every table of the non-empty list ``d[last part of key]``
+        (at most ``most`` of them)."""
         v = d.get(key.split(".")[-1])
         if not isinstance(v, list) or not v:
             raise self.error(key, "must be a non-empty list of tables")
+        if len(v) > most:
+            raise self.error(key, f"{len(v)} tables; the documented maximum is {most}")
         for k, item in enumerate(v):
             kk = f"{key}[{k + 1}]"
             if not isinstance(item, dict):

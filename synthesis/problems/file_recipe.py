@@ -12,6 +12,7 @@ from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.variational_ga import PAPER_BINARY, PAPER_UNARY
 from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.problems.file_reader import Reader, read_settings
+from descent_fmus.synthesis.problems.limits import MAX_BASELINES
 
 __all__ = ["read_recipe", "read_target", "read_baselines", "GA_EXTRA"]
 
@@ -103,6 +104,9 @@ def read_baselines(rd: Reader, data, path: Path, basic):
     if not table:
         raise rd.error("baselines", "give at least one structure, e.g. "
                                     "linear = { kind = \"linear\" }")
+    if len(table) > MAX_BASELINES:
+        raise rd.error("baselines", f"{len(table)} structures; the documented maximum is "
+                                    f"{MAX_BASELINES}")
     laws = {}
     for name, item in table.items():
         key = f"baselines.{name}"
@@ -145,9 +149,14 @@ def _structure(rd: Reader, item, key, kind, path, basic, scale, offset):
                                       input_scale=scale, input_offset=offset)
     if kind == "polynomial":
         degree = int(rd.number(item, key, "degree", 2, integer=True, positive=True))
+        if degree > 3:
+            raise rd.error(f"{key}.degree", f"must be 1, 2 or 3, got {degree}")
         return polynomial_law(template, degree)
     if kind == "tanh":
         hidden = int(rd.number(item, key, "hidden", 3, integer=True, positive=True))
+        if hidden > 8:
+            raise rd.error(f"{key}.hidden", f"must be 1..8 (the controller's parameters), got "
+                                            f"{hidden}")
         return tanh_network_law(template, hidden,
                                 seed=int(rd.number(item, key, "seed", 0, integer=True)))
     if kind == "file":

@@ -112,6 +112,9 @@ from descent_fmus.synthesis.problems.file_reader import (ControllerInfo, PlantIn
                                                          model_description)
 from descent_fmus.synthesis.problems.file_recipe import read_baselines, read_recipe, read_target
 from descent_fmus.synthesis.problems.runner import Runner
+from descent_fmus.synthesis.problems.limits import (MAX_CONSTRAINTS, MAX_FILE_BYTES,
+                                                    MAX_OBJECTIVES, MAX_STATES,
+                                                    ResourceLimitError, check_steps)
 
 try:
     import tomllib
@@ -185,6 +188,10 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
 
 def _read_toml(path: Path) -> tuple:
     try:
+        size = path.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise ProblemFileError(f"{path}: {size} bytes; a problem file holds at most "
+                                   f"{MAX_FILE_BYTES} (list many initial states as a box)")
         raw = path.read_bytes()
     except OSError as exc:
         raise ProblemFileError(f"{path}: cannot read the problem file: {exc.strerror}") from None
@@ -275,6 +282,10 @@ def _simulation_table(rd: Reader, data, plant: PlantInfo) -> tuple:
     stop_time = float(rd.number(sim, "simulation", "stop_time", positive=True))
     if step > stop_time:
         raise rd.error("simulation.step", f"step {step} s exceeds stop_time {stop_time} s")
+    try:
+        check_steps(stop_time, step, "stop_time / step")
+    except ResourceLimitError as exc:
+        raise rd.error("simulation", str(exc)) from None
     stop = None
     if "stop" in sim:
         st = rd.table(sim, "simulation.stop")
@@ -303,6 +314,9 @@ def _initial_states(rd: Reader, data, plant: PlantInfo) -> list:
     if "states" in init:
         if not isinstance(init["states"], list) or not init["states"]:
             raise rd.error("initial_states.states", "the set of initial states is empty")
+        if len(init["states"]) > MAX_STATES:
+            raise rd.error("initial_states.states", f"{len(init['states'])} states; the "
+                                                    f"documented maximum is {MAX_STATES}")
         states = []
         for k, s in enumerate(init["states"]):
             if not isinstance(s, dict):
@@ -336,7 +350,10 @@ def _sampled_states(rd: Reader, init: dict, plant: PlantInfo) -> list:
     samples = int(rd.number(init, "initial_states", "samples", 1 if sampler == "corners"
                             else None, positive=True, integer=True))
     seed = int(rd.number(init, "initial_states", "seed", 1, integer=True))
-    return Box.from_bounds(ranges).sample(samples, seed, sampler)
+    try:
+        return Box.from_bounds(ranges).sample(samples, seed, sampler)
+    except ValueError as exc:
+        raise rd.error("initial_states.samples", str(exc)) from None
 
 
 def _flight_expression(rd: Reader, item: dict, key: str, plant: PlantInfo, ctrl: ControllerInfo,
@@ -366,7 +383,7 @@ def _aggregate(rd: Reader, item: dict, key: str, default: str) -> str:
 
 def _objectives(rd: Reader, data, plant, ctrl, signals, stop) -> tuple:
     objectives, names, penalty = [], [], []
-    for key, ob in rd.items(data, "objectives", _KEYS["objectives"]):
+    for key, ob in rd.items(data, "objectives", _KEYS["objectives"], MAX_OBJECTIVES):
         oname = rd.string(ob, key, "name")
         if oname in names:
             raise rd.error(f"{key}.name", f"objective {oname!r} appears twice")
@@ -381,7 +398,7 @@ def _constraints(rd: Reader, data, plant, ctrl, signals, stop) -> list:
     if "constraints" not in data:
         return []
     out, names = [], set()
-    for key, item in rd.items(data, "constraints", _KEYS["constraints"]):
+    for key, item in rd.items(data, "constraints", _KEYS["constraints"], MAX_CONSTRAINTS):
         cname = rd.string(item, key, "name")
         if cname in names:
             raise rd.error(f"{key}.name", f"constraint {cname!r} appears twice")
@@ -412,13 +429,16 @@ def _record(exprs, ctrl: ControllerInfo) -> tuple:
 
 
 def _basic_law(rd: Reader, data, path: Path, ctrl: ControllerInfo):
-    from descent_fmus.models.controllers.network_operator import NQ_MAX
+    from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX
     bl = rd.table(data, "basic_law")
     rd.keys(bl, "basic_law", _KEYS["basic_law"])
     kinds = [k for k in ("gains", "file", "psi") if k in bl]
     if len(kinds) != 1:
         raise rd.error("basic_law", "give exactly one of 'gains' (a linear law), 'file' (a law "
                                     "JSON) or 'psi' (a matrix inline)")
+    if "size" in bl and not (isinstance(bl["size"], int) and 1 <= bl["size"] <= L_MAX):
+        raise rd.error("basic_law.size", f"must be an integer in 1..{L_MAX} (the nodes the "
+                                         f"controller FMU holds), got {bl['size']!r}")
     law = _law(rd, bl, kinds[0], path, ctrl, f"basic_law.{kinds[0]}")
     if law.size > 32 or len(law.q) > NQ_MAX:
         raise rd.error("basic_law", f"the law has {law.size} nodes and {len(law.q)} "
