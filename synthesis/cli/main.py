@@ -102,7 +102,10 @@ def run_info(args) -> int:
     return 0
 
 
-def main(argv=None) -> int:
+def main(argv=None, last_words: list | None = None) -> int:
+    """Run the command of ``argv`` (default: the process's); its exit code.  A stopped run's
+    one-line report goes to ``last_words`` if given (the program prints it last), else to
+    stderr."""
     # The command line chooses the matplotlib backend (files only); library code never does.
     os.environ.setdefault("MPLBACKEND", "Agg")
     from descent_fmus.models.controllers.network_operator import MatrixError
@@ -132,8 +135,11 @@ def main(argv=None) -> int:
         argv = list(sys.argv[1:] if argv is None else argv)
         how = (" -- continue with: descent-fmus " + shlex.join(
             argv + ([] if "--resume" in argv else ["--resume"])))
-        print(f"descent-fmus {name}: {exc}" + (how if getattr(exc, "resumable", False) else ""),
-              file=sys.stderr)
+        line = f"descent-fmus {name}: {exc}" + (how if getattr(exc, "resumable", False) else "")
+        if last_words is not None:
+            last_words.append(line)          # printed after the exit handlers (entry)
+        else:
+            print(line, file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         print(f"descent-fmus {name}: interrupted", file=sys.stderr)
@@ -150,22 +156,27 @@ def entry() -> None:
     ("corrupted double-linked list") after a run had finished and written everything -- an
     exit status that would have reported a good run as a crash.
     """
+    last_words: list = []
     try:
-        code = main()
+        code = main(last_words=last_words)
     except SystemExit as exc:          # argparse: --help, usage errors
         code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
         if exc.code is not None and not isinstance(exc.code, int):
             print(exc.code, file=sys.stderr)
-    exit_without_teardown(code)
+    # a stopped run's one line comes last, after whatever a library's exit handler prints
+    # (a Dask cluster stopped while it started reports its state there)
+    exit_without_teardown(code, last_words)
 
 
-def exit_without_teardown(code) -> None:
+def exit_without_teardown(code, last_words=()) -> None:
     """End the process with ``code`` once the exit handlers have run and the output is
     flushed, skipping the interpreter's teardown (see :func:`entry`: with pythonfmu FMUs loaded
     in the process, glibc's heap checks were seen, rarely, to abort it after all work was
     done).  The test session ends the same way (``tests/conftest.py``)."""
     import atexit
     atexit._run_exitfuncs()
+    for line in last_words:
+        print(line, file=sys.stderr)
     sys.stdout.flush()
     sys.stderr.flush()
     os._exit(int(code or 0))

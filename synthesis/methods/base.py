@@ -79,3 +79,8 @@ class Method(abc.ABC):
     def status(self) -> dict:
         """A few fields for the progress bar (e.g. the generation, CMA-ES's step size)."""
         return {}
+
+    @property
+    def phase(self) -> str:
+        """What the method is doing, in a few words (the run announces each change)."""
+        return "searching"

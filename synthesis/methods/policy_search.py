@@ -97,6 +97,10 @@ class PolicySearch(Method):
     def status(self) -> dict:
         return {"sigma": f"{self.sigma:.3g}", "restarts": self.restarts}
 
+    @property
+    def phase(self) -> str:
+        return "CMA-ES over the structure's parameters"
+
     # -- checkpoint -----------------------------------------------------------------------
     def state(self) -> dict:
         """JSON-serialisable state (the pickled optimiser and its generator, base64)."""

@@ -200,7 +200,7 @@ class ProcessPool(Backend):
         pids = self.worker_pids()
         for pid in pids:           # SIGTERM: a worker removes its extracted FMUs and exits
             _signal(pid, signal.SIGTERM)
-        deadline = time.monotonic() + 5.0
+        deadline = time.monotonic() + 1.0          # a worker leaves at once on SIGTERM
         while time.monotonic() < deadline and any(_alive(p) for p in pids):
             time.sleep(0.02)
         for pid in pids:

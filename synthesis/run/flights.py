@@ -15,7 +15,7 @@ import time
 import weakref
 
 from descent_fmus.synthesis.problems.contract import SynthesisProblem
-from descent_fmus.synthesis.run.signals import check_stop
+from descent_fmus.synthesis.run.signals import check_stop, critical
 
 __all__ = ["LawFlyer", "Flown"]
 
@@ -54,7 +54,8 @@ class LawFlyer:
         if self.loop is None:
             return None, self.error
         try:
-            flights = self.problem.runner.flights(self.loop, self.problem, law)
+            with critical():
+                flights = self.problem.runner.flights(self.loop, self.problem, law)
             return self.problem.evaluate(flights), None
         except Exception as exc:  # an FMU error costs this law only
             return None, f"{type(exc).__name__}: {exc}"

@@ -75,10 +75,12 @@ def feasibility(problem, evaluator) -> dict:
 
 
 def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
-                  reference: bool) -> dict:
+                  reference: bool, announce=None) -> dict:
     """Write the Pareto set (the archive's items ``(Candidate, f, cv)``), its figure and, as
     asked by ``export`` (True, False or a :class:`~synthesis.fmi.law_files.LawExport`), the law
-    files; the summary fields."""
+    files; the summary fields.  ``announce(text)`` is told each phase."""
+    announce = announce or (lambda text: None)
+    announce("writing the report")
     front = archive.sorted()
     laws = [cand.law for cand, _, _ in front]
     rows = _rows(problem, front, evaluator.evaluate(laws).extras)
@@ -100,10 +102,13 @@ def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
     if problem.constraints:
         summary["basic_law"]["violation"] = float(basic.cv[0])
         summary["feasibility"] = feasibility(problem, evaluator)
+    if reference:
+        announce("computing the problem's reference")
     summary.update(problem.report.summary(rows, out, reference))
     plot_front(problem, rows, summary, out / "pareto.png")
     what = LawExport.of(export)
     if what is not None:
+        announce(f"exporting {len(rows)} laws")
         _export_laws(problem, rows, laws, what, out, fmu_dir, summary)
         pareto_json()
     summary["pareto"] = rows

@@ -1,12 +1,13 @@
 """Ending a long run on a signal, and worker processes that never outlive their parent.
 
 Batch systems and container runtimes send SIGTERM before they preempt a job; a user types Ctrl-C
-(SIGINT).  Inside :func:`graceful_signals` the first such signal only *requests* a stop: the run
-checks :func:`check_stop` where stopping is safe (between candidates, while it waits for
-workers, between generations and exported laws) and raises :class:`RunInterrupted` there.  A
-second signal raises at once.  Raising from the handler itself would be unsafe: an in-process
-evaluation runs the FMUs' Python code in this process, and an exception thrown into an FMU
-callback becomes an FMU error, not a stop.
+(SIGINT).  Inside :func:`graceful_signals` such a signal ends the run at once, whatever it is
+doing -- building a population, refining, computing a reference, exporting laws, waiting for
+Dask -- by raising :class:`RunInterrupted` from the handler, except inside a :func:`critical`
+section: there (an in-process flight, where the FMUs' Python code runs in this process and an
+exception thrown into an FMU callback would become an FMU error, not a stop) the signal only
+*requests* the stop, which :func:`check_stop` raises as soon as the section ends (a flight
+takes milliseconds).  A second signal raises at once, critical or not.
 
 Worker processes of a local pool call :func:`watch_parent` in their initialiser: they ignore
 SIGINT (the parent handles it and stops them), ask the Linux kernel to send them SIGTERM when
@@ -23,7 +24,7 @@ import signal
 import sys
 import threading
 
-__all__ = ["RunInterrupted", "graceful_signals", "check_stop", "stop_requested",
+__all__ = ["RunInterrupted", "graceful_signals", "check_stop", "stop_requested", "critical",
            "watch_parent", "EXIT_CODES"]
 
 #: Exit codes of ``descent-fmus`` (documented in the README).
@@ -52,6 +53,7 @@ class RunInterrupted(KeyboardInterrupt):
 
 
 _requested: list = []          # signal numbers received inside graceful_signals()
+_critical: list = [0]          # depth of critical() sections
 
 
 def stop_requested() -> int | None:
@@ -67,8 +69,21 @@ def check_stop() -> None:
 
 def _handler(signum, frame):
     _requested.append(signum)
-    if len(_requested) > 1:           # asked twice: stop now
+    if len(_requested) > 1 or not _critical[0]:   # outside a critical section, or asked twice
         raise RunInterrupted(_requested[0])
+
+
+@contextlib.contextmanager
+def critical():
+    """A section a signal must not interrupt (see the module docstring); a stop requested
+    inside it is raised when it ends."""
+    _critical[0] += 1
+    try:
+        yield
+    finally:
+        _critical[0] -= 1
+    if not _critical[0]:
+        check_stop()
 
 
 @contextlib.contextmanager
