@@ -19,12 +19,13 @@ into ``fmus/native/``).
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 from descent_fmus.synthesis.fmi.native.build import Variable, build_fmu
 from descent_fmus.synthesis.fmi.native.ccode import interpreter_operations_h
 
-__all__ = ["slave_variables", "layout_config", "program_layout",
+__all__ = ["slave_variables", "layout_config", "program_layout", "with_starts",
            "build_network_operator_controller", "build_program_controller", "NATIVE_CONTROLLERS",
            "build_native_controllers"]
 
@@ -89,23 +90,45 @@ def _no_layout(variables) -> str:
         {"NO_L_MAX": L_MAX, "NO_NX_MAX": NX_MAX, "NO_NQ_MAX": NQ_MAX, "NO_NU_MAX": NU_MAX})
 
 
+def with_starts(variables, defaults: dict | None) -> list:
+    """``variables`` with the start values ``defaults`` (name -> value) instead of theirs.
+
+    Raises
+    ------
+    KeyError
+        A name that is no variable, or an output (outputs have no start value).
+    """
+    defaults = dict(defaults or {})
+    settable = {v.name for v in variables if v.kind != "output"}
+    unknown = [n for n in defaults if n not in settable]
+    if unknown:
+        raise KeyError(f"no parameter or input {', '.join(map(repr, unknown[:5]))}")
+    return [replace(v, start=int(defaults[v.name]) if v.type == "Integer"
+                    else float(defaults[v.name])) if v.name in defaults else v
+            for v in variables]
+
+
 def _build_twin(cls, dest, model_file: str, config, extra_files=(), generated=None,
-                compiler=None) -> Path:
+                compiler=None, defaults=None) -> Path:
     variables, description = slave_variables(cls)
+    variables = with_starts(variables, defaults)
     files = dict(generated or {})
     files["model_config.h"] = config(variables)
     return build_fmu(dest, cls.__name__, description, variables, files,
                      [model_file, *extra_files], compiler=compiler)
 
 
-def build_network_operator_controller(dest, compiler: str | None = None) -> Path:
-    """The native ``NetworkOperatorController`` (see the module docstring)."""
+def build_network_operator_controller(dest, compiler: str | None = None,
+                                      defaults: dict | None = None) -> Path:
+    """The native ``NetworkOperatorController`` (see the module docstring); ``defaults``: other
+    start values (e.g. a law's), as the pythonfmu FMU's ``with_defaults``."""
     from descent_fmus.models.controllers.network_operator import NetworkOperatorController
     return _build_twin(NetworkOperatorController, dest, "no_model.c", _no_layout, NO_FILES,
-                       {"no_operations.h": interpreter_operations_h()}, compiler)
+                       {"no_operations.h": interpreter_operations_h()}, compiler, defaults)
 
 
-def build_program_controller(dest, compiler: str | None = None) -> Path:
+def build_program_controller(dest, compiler: str | None = None,
+                             defaults: dict | None = None) -> Path:
     """The native ``ProgramController`` (the table player ``c/table_model.c``, with the node
     times ``t_node[i]`` of ``grid`` = 1)."""
     from descent_fmus.models.controllers.program_table import (N_CHANNELS, NODES_MAX,
@@ -113,7 +136,8 @@ def build_program_controller(dest, compiler: str | None = None) -> Path:
 
     def config(variables):
         return program_layout(variables, NODES_MAX, N_CHANNELS, grid=True)
-    return _build_twin(ProgramController, dest, "table_model.c", config, compiler=compiler)
+    return _build_twin(ProgramController, dest, "table_model.c", config, compiler=compiler,
+                       defaults=defaults)
 
 
 def program_layout(variables, nodes: int, channels: int, grid: bool) -> str:
