@@ -12,6 +12,10 @@
   (:func:`descent_fmus.synthesis.cli.main.build_parser`).
 * ``<!-- problem-file-format -->`` becomes the annotated TOML example, key by key, of the module
   docstring of :mod:`descent_fmus.synthesis.problems.files` (the reader of problem files).
+* ``<!-- limits -->`` becomes the table of the documented maxima: every setting of the recipe
+  (:mod:`descent_fmus.synthesis.methods.settings`), the problem's
+  (:mod:`descent_fmus.synthesis.problems.limits`) and the run's
+  (:mod:`descent_fmus.synthesis.run.resources`).
 
 mkdocs.yml names this file under ``hooks:``; it imports the installed package.
 """
@@ -23,6 +27,7 @@ import re
 PARAMETERS = re.compile(r"^<!--\s*parameters:\s*([a-z_]+)\s*-->[ \t]*$", re.MULTILINE)
 OPTIONS = re.compile(r"^<!--\s*options:\s*([a-z0-9_ -]+?)\s*-->[ \t]*$", re.MULTILINE)
 FORMAT = re.compile(r"^<!--\s*problem-file-format\s*-->[ \t]*$", re.MULTILINE)
+LIMITS = re.compile(r"^<!--\s*limits\s*-->[ \t]*$", re.MULTILINE)
 
 
 def parameter_section(stem: str) -> str:
@@ -101,7 +106,36 @@ def problem_file_format() -> str:
     return "```toml\n" + textwrap.dedent("\n".join(block)).strip("\n") + "\n```"
 
 
+def limits_table() -> str:
+    """Every documented maximum, read from where it is defined."""
+    from descent_fmus.synthesis.methods.law import MAX_LAW_FILE_BYTES, MAX_NODES
+    from descent_fmus.synthesis.methods.settings import settings_of
+    from descent_fmus.synthesis.problems import limits
+    from descent_fmus.synthesis.problems.contract import SETTING_GROUPS
+    from descent_fmus.synthesis.run.resources import MAX_WORKERS
+    lines = ["| what | command line | problem file | range |", "| --- | --- | --- | --- |"]
+    for attr, cls, prefix in SETTING_GROUPS:
+        for s in settings_of(cls):
+            flag = "--" + (prefix + s.name).replace("_", "-")
+            lines.append(f"| {_cell(s.help)} | `{flag}` | `[{attr}] {s.name}` | {s.limits} |")
+    rows = [("local worker processes", "`--workers`", "", f"1..{MAX_WORKERS}"),
+            ("initial states (listed, sampled or box corners)", "",
+             "`[initial_states]`", f"<= {limits.MAX_STATES}"),
+            ("communication steps per flight (stop time / step)", "", "`[simulation]`",
+             f"<= {limits.MAX_STEPS}"),
+            ("objectives, constraints, baseline structures", "", "`[[objectives]]`, "
+             "`[[constraints]]`, `[baselines]`",
+             f"<= {limits.MAX_OBJECTIVES}, {limits.MAX_CONSTRAINTS}, {limits.MAX_BASELINES}"),
+            ("a problem file [bytes]", "`--problem`", "", f"<= {limits.MAX_FILE_BYTES}"),
+            ("a law file [bytes]", "`--law`, `export-law`", "", f"<= {MAX_LAW_FILE_BYTES}"),
+            ("nodes of a law's matrix (32 in the controller FMU)", "", "`[basic_law]`",
+             f"<= {MAX_NODES}")]
+    lines += [f"| {a} | {b} | {c} | {d} |" for a, b, c, d in rows]
+    return "\n".join(lines)
+
+
 def on_page_markdown(markdown, page, config, files):
+    markdown = LIMITS.sub(lambda m: limits_table(), markdown)
     markdown = PARAMETERS.sub(lambda m: parameter_section(m.group(1)), markdown)
     markdown = FORMAT.sub(lambda m: problem_file_format(), markdown)
     return OPTIONS.sub(lambda m: options_section(m.group(1)), markdown)
