@@ -5,7 +5,11 @@
  * values, C99 hexadecimal floats or nan/inf), sets the inputs, reads the outputs (printed as
  * hexadecimal floats, one line per input line) and steps 1 s.
  *
- *   fmi2_host LIBRARY GUID "VR_IN,VR_IN,..." "VR_OUT,VR_OUT,..." < inputs > outputs
+ *   fmi2_host LIBRARY GUID "VR_IN,VR_IN,..." "VR_OUT,VR_OUT,..." [RESOURCE_URI] < inputs > outputs
+ *
+ * RESOURCE_URI (optional): the FMU's resources folder as a file URI, for FMUs that read it (a
+ * closed-loop container FMU finds its components there); an empty VR_IN list steps an FMU
+ * without inputs (a closed loop) once per input line.
  *
  * tests/test_native_law.py builds it with the system compiler and runs it with LD_PRELOAD,
  * PYTHONHOME and PYTHONPATH unset: a native law FMU needs nothing of Python.
@@ -70,8 +74,8 @@ int main(int argc, char **argv)
     void *lib;
     Component c;
     Callbacks cb = {logger, calloc, free, NULL, NULL};
-    if (argc != 5) {
-        fprintf(stderr, "usage: fmi2_host LIBRARY GUID VR_IN,... VR_OUT,...\n");
+    if (argc != 5 && argc != 6) {
+        fprintf(stderr, "usage: fmi2_host LIBRARY GUID VR_IN,... VR_OUT,... [RESOURCE_URI]\n");
         return 2;
     }
     lib = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
@@ -90,7 +94,8 @@ int main(int argc, char **argv)
     SYM(FreeF, fmi2FreeInstance)
     nx = parse_vrs(argv[3], in, 64);
     nu = parse_vrs(argv[4], out, 64);
-    c = fmi2Instantiate("host", 1 /* fmi2CoSimulation */, argv[2], "", &cb, 0, 0);
+    c = fmi2Instantiate("host", 1 /* fmi2CoSimulation */, argv[2], argc == 6 ? argv[5] : "",
+                        &cb, 0, 0);
     if (c == NULL)
         return 4;
     if (fmi2SetupExperiment(c, 0, 0.0, 0.0, 0, 0.0) || fmi2EnterInitializationMode(c)

@@ -10,6 +10,7 @@ Tolerance: none -- every comparison of numbers is bitwise (``struct.pack('<d')``
 from __future__ import annotations
 
 import math
+import os
 import shutil
 import subprocess
 import zipfile
@@ -344,3 +345,39 @@ def test_native_closed_loop_fmu_and_ssp(twin_dir, fmu_dir, tmp_path):
     ssd = read_ssd(str(twin_dir / "native" / "ReentryClosedLoop.ssp"), validate=True)
     assert [e.source for e in ssd.system.elements] == ["resources/Reentry.fmu",
                                                        "resources/NetworkOperatorController.fmu"]
+
+
+def test_native_closed_loop_in_a_c_host(twin_dir, fmu_dir, tmp_path):
+    # the native ReentryClosedLoop (fmpy's container FMU, C, of the two native twins) run by the
+    # C host tests/fmi2_host.c with LD_PRELOAD, PYTHONHOME and PYTHONPATH unset: the same final
+    # L and load_max as the pythonfmu FMUs under the Python master, bitwise
+    from descent_fmus.synthesis.fmi.native.loops import build_native_closed_loops
+    from descent_fmus.synthesis.registry import get_problem, get_system
+    from test_native_law import _host
+    if not (fmu_dir / "native" / "Reentry.fmu").is_file():
+        pytest.skip("the native Reentry plant is not built (python build_fmus.py)")
+    loop = twin_dir / "native" / "ReentryClosedLoop.fmu"
+    if not loop.is_file():
+        build_native_closed_loops([s for s in get_system("reentry").closed_loops
+                                   if s.wiring.name == "ReentryClosedLoop"],
+                                  twin_dir / "native", say=lambda _: None)
+    work = tmp_path / "loop"
+    with zipfile.ZipFile(loop) as z:
+        z.extractall(work)
+    md = read_model_description(str(loop))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("LD_PRELOAD", "PYTHONHOME", "PYTHONPATH")}
+    env["PATH"] = "/usr/bin:/bin"
+    lib = work / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+    res = subprocess.run([str(_host(tmp_path)), str(lib), md.guid, "",
+                          f"{vr['L']},{vr['load_max']}", (work / "resources").as_uri()],
+                         input="\n" * 301, capture_output=True, text=True, env=env, check=True)
+    rows = [[float.fromhex(t) for t in line.split()] for line in res.stdout.splitlines()]
+    problem = get_problem("reentry")
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu",
+                    fmu_dir / "NetworkOperatorController.fmu") as master:
+        want = master.run(problem.initial_states[0]).final
+    assert len(rows) == 301
+    assert [bits(v) for v in rows[-1]] == [bits(want["L"]), bits(want["load_max"])]

@@ -1,0 +1,197 @@
+"""Benchmark: S1 flights per second on every closed-loop path, in one run, with their ratios.
+
+1. pythonfmu plant + pythonfmu controller through the Python master (``ClosedLoop``);
+2. the native twins (``fmus/native/``) through the Python master;
+3. the native twins in fmpy's container FMU, one call per flight -- the evaluator's path, timed
+   as the evaluator flies a law: ``LawFlyer.fly`` (the law's start values, the run, the
+   objectives) over a set of distinct laws;
+4. pure C: the same two native FMUs stepped by a C master (``benchmarks/c_master.c``, no Python
+   in the process).
+
+Then a worker's resident size over a long run: ``--long`` flights (default 100 000) through the
+evaluator's native path, the RSS printed at the start (after a warm-up), every tenth and at the
+end.  Targets: path 3 >= 50x path 1 and within 2x of path 4; the RSS flat.
+
+    python benchmarks/native_paths.py [--fmus DIR] [--long N] [--json]
+
+Needs ``python build_fmus.py`` (with the native plant twin) and a C compiler.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import tempfile
+import time
+from pathlib import Path
+
+from fmpy import extract, read_model_description
+
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.paths import fmu_dir
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.run.flights import LawFlyer
+
+HERE = Path(__file__).resolve().parent
+
+
+def machine() -> str:
+    cpu = next((line.split(":", 1)[1].strip() for line in
+                Path("/proc/cpuinfo").read_text().splitlines() if line.startswith("model name")),
+               platform.processor()) if Path("/proc/cpuinfo").exists() else platform.processor()
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return (f"{cpu}, {os.cpu_count()} cores, {platform.system()} {platform.release()}, "
+            f"Python {platform.python_version()}, load average {load:.2f}")
+
+
+def rss_mb() -> float:
+    for line in Path("/proc/self/status").read_text().splitlines():
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1]) / 1024.0
+    return float("nan")
+
+
+def s1_laws(n: int = 16) -> list:
+    """The GA's basic solution and ``n - 1`` structural variations of it (distinct laws)."""
+    import numpy as np
+
+    from descent_fmus.synthesis.methods.encoding import StructureCodec
+    from descent_fmus.synthesis.systems.reentry.laws import synthesis_basic_law
+    basic = synthesis_basic_law()
+    codec = StructureCodec(basic.size, basic.nx + len(basic.q))
+    rng = np.random.default_rng(11)
+    out = [basic]
+    while len(out) < n:
+        psi = codec.apply(basic.psi, [codec.random(rng) for _ in range(8)])
+        out.append(basic.with_structure(psi, list(np.asarray(basic.q) *
+                                                  rng.uniform(0.5, 1.5, len(basic.q)))))
+    return out
+
+
+def rate_master(problem, plant, ctrl, laws, seconds: float) -> tuple[float, dict]:
+    """Flights per second of the Python master on these FMUs (and the last flight's final)."""
+    state = problem.initial_states[0]
+    with ClosedLoop(problem.wiring, plant, ctrl) as loop:
+        final = loop.run(state, laws[0].start_values()).final
+        n, t0 = 0, time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            loop.run(state, laws[n % len(laws)].start_values())
+            n += 1
+        return n / (time.perf_counter() - t0), final
+
+
+def rate_evaluator(problem, plant, ctrl, laws, seconds: float) -> tuple[float, str, tuple]:
+    """Flights per second of ``LawFlyer.fly`` (the evaluator's per-process flyer)."""
+    flyer = LawFlyer(problem, str(plant), str(ctrl))
+    try:
+        out, _ = flyer.fly(laws[0])
+        n, t0 = 0, time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            flyer.fly(laws[n % len(laws)])
+            n += 1
+        return n / (time.perf_counter() - t0), flyer.loop.path, out.f
+    finally:
+        flyer.close()
+
+
+def rate_c(problem, plant_twin, ctrl_twin, law, flights: int, work: Path) -> tuple:
+    """Flights per second of the C master on the two native FMUs (and its final L, load_max)."""
+    exe = work / "c_master"
+    subprocess.run([find_compiler(), "-std=c99", "-O2", "-o", str(exe), str(HERE / "c_master.c"),
+                    "-ldl"], check=True)
+    libs, lines = [], []
+    for tag, path, values in (("p", plant_twin, problem.initial_states[0]),
+                              ("c", ctrl_twin, law.start_values())):
+        md = read_model_description(str(path))
+        d = Path(extract(str(path), unzipdir=str(work / path.stem)))
+        libs += [str(d / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"),
+                 md.guid]
+        var = {v.name: v for v in md.modelVariables}
+        for name, value in values.items():
+            v = var[name]
+            text = float.hex(float(value)) if v.type == "Real" else str(int(value))
+            lines.append(f"{tag} {'R' if v.type == 'Real' else 'I'} {v.valueReference} {text}")
+        if tag == "p":
+            pv = var
+        else:
+            cv = var
+    w = problem.wiring
+    lines += [f"y {pv[a].valueReference} {cv[b].valueReference}" for a, b in w.to_controller]
+    lines += [f"u {cv[a].valueReference} {pv[b].valueReference}" for a, b in w.to_plant]
+    lines += [f"o {pv[n].valueReference}" for n in ("L", "load_max")]
+    lines += [f"h {float.hex(w.step)}", f"t {float.hex(w.stop_time)}"]
+    (work / "spec.txt").write_text("\n".join(lines) + "\n")
+    res = subprocess.run([str(exe), *libs, str(work / "spec.txt"), str(flights)],
+                         capture_output=True, text=True, check=True)
+    per_flight = float(res.stderr.split("seconds_per_flight")[1])
+    return 1.0 / per_flight, [float.fromhex(v) for v in res.stdout.split()]
+
+
+def long_run(problem, plant, ctrl, laws, flights: int) -> list:
+    """``(flights so far, RSS [MB])`` at the start, every tenth of the run and at the end."""
+    flyer = LawFlyer(problem, str(plant), str(ctrl))
+    try:
+        for law in laws:
+            flyer.fly(law)                                # warm-up: every layout cached
+        rows = [(0, rss_mb())]
+        for k in range(1, flights + 1):
+            out, err = flyer.fly(laws[k % len(laws)])
+            if err:
+                raise RuntimeError(err)
+            if k % max(1, flights // 10) == 0 or k == flights:
+                rows.append((k, rss_mb()))
+        return rows
+    finally:
+        flyer.close()
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
+    ap.add_argument("--seconds", type=float, default=8.0, help="time per path [s]")
+    ap.add_argument("--long", type=int, default=100_000, help="flights of the RSS run")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    problem = get_problem("reentry")
+    plant, ctrl = problem.fmu_paths(args.fmus)
+    twins = plant.parent / "native" / plant.name, ctrl.parent / "native" / ctrl.name
+    missing = [str(t) for t in twins if not t.is_file()]
+    if missing:
+        raise SystemExit(f"native FMUs missing: {', '.join(missing)} (python build_fmus.py)")
+    laws = s1_laws()
+    rates = {}
+    rates["pythonfmu, Python master"], want = rate_master(problem, plant, ctrl, laws,
+                                                          args.seconds)
+    rates["native, Python master"], got = rate_master(problem, *twins, laws, args.seconds)
+    assert got == want, "the native twins fly differently"
+    rates["native, C container (evaluator)"], path, f = rate_evaluator(
+        problem, plant, ctrl, laws, args.seconds)
+    with tempfile.TemporaryDirectory(prefix="native_paths_") as tmp:
+        n_c = max(100, int(rates["native, C container (evaluator)"] * args.seconds))
+        rates["native, pure C master"], c_final = rate_c(problem, *twins, laws[0], n_c, Path(tmp))
+    assert c_final == [want["L"], want["load_max"]], "the C master flies differently"
+    rss = long_run(problem, plant, ctrl, laws, args.long)
+    ev, py = rates["native, C container (evaluator)"], rates["pythonfmu, Python master"]
+    report = {"machine": machine(), "evaluator_path": path, "flights_per_s": rates,
+              "ratios": {"evaluator / pythonfmu (target >= 50)": ev / py,
+                         "pure C / evaluator (target <= 2)": rates["native, pure C master"] / ev,
+                         "native master / pythonfmu": rates["native, Python master"] / py},
+              "rss_mb": rss, "objectives_basic_law": f}
+    if args.json:
+        print(json.dumps(report, indent=1))
+        return
+    print(f"S1 reentry, nominal flight, 16 distinct laws; {report['machine']}")
+    print(f"{'path':36s} {'flights/s':>10s} {'ms/flight':>10s}")
+    for name, r in rates.items():
+        print(f"{name:36s} {r:10.1f} {1e3 / r:10.3f}")
+    for name, r in report["ratios"].items():
+        print(f"  {name}: {r:.1f}x")
+    print(f"evaluator's path: {path}; RSS over {args.long} flights [MB]: "
+          + ", ".join(f"{k}: {m:.1f}" for k, m in rss))
+
+
+if __name__ == "__main__":
+    main()
