@@ -16,7 +16,8 @@
  * A stateful model (native_model.h, optional hooks) gets its own zeroed memory per instance and
  * is told when its start values are set (instantiation, reset), when its parameters passed the
  * check (entering and leaving initialisation, as the pythonfmu slaves prepare) and when it
- * steps; the defaults below do nothing.
+ * steps, and may report that preparing or stepping failed (fmi2Error); the defaults below do
+ * nothing.
  *
  * descent-fmus (MIT licence).
  */
@@ -37,6 +38,7 @@
 #pragma comment(linker, "/alternatename:model_reset=descent_default_model_reset")
 #pragma comment(linker, "/alternatename:model_prepare=descent_default_model_prepare")
 #pragma comment(linker, "/alternatename:model_step=descent_default_model_step")
+#pragma comment(linker, "/alternatename:model_failure=descent_default_model_failure")
 #else
 #define DEFAULT_HOOK(name) __attribute__((weak)) name
 #endif
@@ -52,6 +54,12 @@ void DEFAULT_HOOK(model_step)(ModelState *s, double t, double h)
     (void)s;
     (void)t;
     (void)h;
+}
+
+const char *DEFAULT_HOOK(model_failure)(const ModelState *s)
+{
+    (void)s;
+    return NULL;
 }
 
 typedef enum { ST_INSTANTIATED, ST_INIT, ST_STEP, ST_TERMINATED, ST_ERROR } Mode;
@@ -249,6 +257,12 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
     c->mode = ST_STEP;
     c->stale = 1;
     model_prepare(&c->s);
+    bad = model_failure(&c->s);
+    if (bad != NULL) {
+        log_error(c, "%s", bad);
+        c->mode = ST_ERROR;
+        return fmi2Error;
+    }
     return fmi2OK;
 }
 
@@ -539,6 +553,11 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h,
     }
     refresh(c);
     model_step(&c->s, t, h);
+    if (model_failure(&c->s) != NULL) {
+        log_error(c, "%s", model_failure(&c->s));
+        c->mode = ST_ERROR;
+        return fmi2Error;
+    }
     c->s.time = t + h;
     if (h > 0.0)
         c->s.last_step = h;

@@ -62,5 +62,9 @@ void model_prepare(ModelState *s);
 /* the model's own step over [t, t + h] (a sampled controller: the whole interval since its last
    sample), after the outputs were brought up to date and before s->time moves to t + h */
 void model_step(ModelState *s, double t, double h);
+/* NULL, or why the last model_prepare or model_step failed (a native plant where Python would
+   raise): the wrapper then logs it and returns fmi2Error from fmi2ExitInitializationMode or
+   fmi2DoStep */
+const char *model_failure(const ModelState *s);
 
 #endif
