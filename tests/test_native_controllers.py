@@ -254,6 +254,17 @@ def twin_dir(fmu_dir, native, tmp_path_factory):
     return d
 
 
+def test_start_array_is_start_values():
+    # what the native loop reads (NetworkOperator.start_array) is what every other path sets
+    # (start_values): the same names in the same order, the same values (integers exactly)
+    rng = np.random.default_rng(5)
+    for k in range(200):
+        law = random_law(rng) if k % 2 else every_operation_law(rng)
+        names, values = law.start_array()
+        sv = law.start_values()
+        assert names == tuple(sv) and values.tolist() == list(sv.values())
+
+
 def test_runner_chooses_the_native_path_when_the_twins_exist(twin_dir, fmu_dir, tmp_path):
     from descent_fmus.synthesis.paths import FMUNotFoundError
     from descent_fmus.synthesis.problems.runner import Runner

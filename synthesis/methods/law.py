@@ -39,6 +39,14 @@ _FMU_NAMES = {
     "bounds": [(f"u_min[{k + 1}]", f"u_max[{k + 1}]", f"out[{k + 1}]") for k in range(NU_MAX)],
     "scaling": [(f"x_scale[{k + 1}]", f"x_offset[{k + 1}]") for k in range(NX_MAX)],
 }
+#: every name in the order of start_values, and where each block is (NetworkOperator.start_array)
+_FMU_NAMES["all"] = ("nx", "nq", "nu", *_FMU_NAMES["psi"], *_FMU_NAMES["q"],
+                     *(n for t in _FMU_NAMES["bounds"] for n in t),
+                     *(n for t in _FMU_NAMES["scaling"] for n in t))
+_FMU_NAMES["at"] = {key: slice(a, a + n) for key, a, n in (
+    ("psi", 3, len(_FMU_NAMES["psi"])), ("q", 3 + len(_FMU_NAMES["psi"]), NQ_MAX),
+    ("bounds", 3 + len(_FMU_NAMES["psi"]) + NQ_MAX, 3 * NU_MAX),
+    ("scaling", 3 + len(_FMU_NAMES["psi"]) + NQ_MAX + 3 * NU_MAX, 2 * NX_MAX))}
 
 
 class CapacityError(MatrixError):
@@ -229,6 +237,43 @@ class NetworkOperator:
                 for v, (lo, hi) in zip(self.raw(x), self.bounds)]
 
     # -- FMU interface --------------------------------------------------------------------
+    def _check_capacity(self) -> None:
+        for what, n, cap in (("nodes", self.size, L_MAX), ("inputs", self.nx, NX_MAX),
+                             ("parameters", len(self.q), NQ_MAX),
+                             ("outputs", len(self.outputs), NU_MAX)):
+            if n > cap:
+                raise CapacityError(f"the law has {n} {what}; the NetworkOperatorController "
+                                    f"FMU holds at most {cap} (sizes are fixed at build time)")
+
+    def start_array(self) -> tuple:
+        """:meth:`start_values` as ``(names, values)``: the same names in the same order (one
+        tuple per process) and their values as one float64 array (the integers exactly), made in
+        a few microseconds -- for the native closed loop, which compares them with the FMU's
+        declared start values as arrays.
+
+        Raises
+        ------
+        CapacityError
+            If the law has more nodes, inputs, parameters or outputs than the FMU holds.
+        """
+        self._check_capacity()
+        names, at = _FMU_NAMES, _FMU_NAMES["at"]
+        v = np.empty(len(names["all"]))
+        v[:3] = self.nx, len(self.q), len(self.outputs)
+        full = np.zeros((L_MAX, L_MAX))
+        full[:self.size, :self.size] = self.psi
+        v[at["psi"]] = full[names["upper"]]
+        v[at["q"]] = 0.0
+        v[at["q"].start:at["q"].start + len(self.q)] = self.q
+        bounds = np.zeros((NU_MAX, 3))
+        bounds[:len(self.outputs)] = [(lo, hi, o) for (lo, hi), o in zip(self.bounds,
+                                                                        self.outputs)]
+        v[at["bounds"]] = bounds.ravel()
+        scaling = np.tile([1.0, 0.0], (NX_MAX, 1))
+        scaling[:self.nx] = np.column_stack([self.input_scale, self.input_offset])
+        v[at["scaling"]] = scaling.ravel()
+        return names["all"], v
+
     def start_values(self) -> dict:
         """Start values that load this law into the generic NetworkOperatorController FMU.
 
@@ -237,13 +282,8 @@ class NetworkOperator:
         CapacityError
             If the law has more nodes, inputs, parameters or outputs than the FMU holds.
         """
+        self._check_capacity()
         L = self.size
-        for what, n, cap in (("nodes", L, L_MAX), ("inputs", self.nx, NX_MAX),
-                             ("parameters", len(self.q), NQ_MAX),
-                             ("outputs", len(self.outputs), NU_MAX)):
-            if n > cap:
-                raise CapacityError(f"the law has {n} {what}; the NetworkOperatorController "
-                                    f"FMU holds at most {cap} (sizes are fixed at build time)")
         # once per candidate on the evaluation's hot path: the names are made once per process
         # and the matrix is read as one array (the upper triangle, row by row: psi[1,1],
         # psi[1,2], ..., the order of the controller's variables)

@@ -91,7 +91,9 @@ class Runner:
     def flights(self, loop, problem, law) -> list:
         """The flights of ``law`` (all initial states, or fewer if a race stopped it); each
         result carries its start values (``result.start``)."""
-        sv = law.start_values()
+        # the native loop reads a law's start values as one array (the same names and values)
+        sv = law.start_array() if getattr(loop, "takes_arrays", False) \
+            and hasattr(law, "start_array") else law.start_values()
         record = bool(problem.record)
         states = problem.initial_states
         stops = set(self.race.sizes) if self.race is not None else set()

@@ -162,15 +162,13 @@ def operations_c(unary=(), binary=(), helpers=("finite", "clip", "scale")) -> st
 def interpreter_operations_h() -> str:
     """``no_operations.h`` of the native matrix interpreter (``c/no_interp.c``): every operation
     of the table as a static function (:func:`operations_c`), the unit elements ``NO_UNIT[k]``
-    of the binary operations, their counts and the dispatch ``no_rho(k, z)`` / ``no_chi(k, a,
-    b)`` (a ``switch`` the compiler inlines the operations into)."""
+    of the binary operations, their counts and ``no_arc(NO_ARC_CODE(rho, chi), a, z)`` -- one
+    arc, ``finite(chi(a, rho(z)))``, dispatched by one ``switch`` on the pair into which the
+    compiler inlines both operations (measured: 1.5x faster than a switch per operation)."""
     nu, nb = len(UNARY_OPS) - 1, len(BINARY_OPS) - 1
     units = ", ".join(["0.0"] + [c_double(BINARY_OPS[k].unit) for k in range(1, nb + 1)])
-
-    def dispatch(kind, args, params, n):
-        cases = "".join(f"    case {k}: return {kind}{k}({args});\n" for k in range(1, n + 1))
-        return (f"static inline double no_{kind}(int k, {params})\n{{\n    switch (k) {{\n"
-                f"{cases}    default: return 0.0;\n    }}\n}}\n")
+    cases = "".join(f"    case NO_ARC_CODE({r}, {c}): return no_finite(chi{c}(a, rho{r}(z)));\n"
+                    for r in range(1, nu + 1) for c in range(1, nb + 1))
     return ("/* no_operations.h -- the network operator's operation table rendered to C (generated "
             "by descent-fmus\n * from models/controllers/network_operator.py; regenerate rather "
             "than edit). */\n#ifndef DESCENT_NO_OPERATIONS_H\n#define DESCENT_NO_OPERATIONS_H\n\n"
@@ -181,8 +179,11 @@ def interpreter_operations_h() -> str:
                 "static double ", "static inline double ") + "\n"
             f"#define NO_N_UNARY {nu}\n#define NO_N_BINARY {nb}\n"
             f"static const double NO_UNIT[NO_N_BINARY + 1] = {{{units}}};\n\n"
-            + dispatch("rho", "z", "double z", nu) + "\n"
-            + dispatch("chi", "a, b", "double a, double b", nb) + "\n#endif\n")
+            "/* one arc: the unary operation rho on z, then the binary operation chi of the node's "
+            "value a\n   and that, clamped */\n"
+            "#define NO_ARC_CODE(rho, chi) ((rho) * (NO_N_BINARY + 1) + (chi))\n"
+            "static inline double no_arc(int code, double a, double z)\n{\n    switch (code) {\n"
+            + cases + "    default: return 0.0;\n    }\n}\n\n#endif\n")
 
 
 def _reachable(psi, ns: int, outputs) -> set:

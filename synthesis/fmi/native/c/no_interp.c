@@ -70,8 +70,7 @@ const char *no_compile(NOProgram *p, const int *psi, int nx, int nq, const int *
                 NOArc *a = &next.arcs[next.n_arcs++];
                 a->i = (unsigned char)i;
                 a->j = (unsigned char)j;
-                a->rho = (unsigned char)r;
-                a->chi = (unsigned char)b;
+                a->code = (short)NO_ARC_CODE(r, b);
             }
         }
     for (k = 0; k < nu; k++) {
@@ -98,7 +97,7 @@ void no_evaluate(const NOProgram *p, const double *sources, double *z_out)
     for (k = 0; k < p->ns; k++)
         z[k] = no_finite(sources[k]);
     for (; a < end; a++)
-        z[a->j] = no_finite(no_chi(a->chi, z[a->j], no_rho(a->rho, z[a->i])));
+        z[a->j] = no_arc(a->code, z[a->j], z[a->i]);      /* finite(chi(z_j, rho(z_i))) */
     for (k = 0; k < p->nu; k++)
         z_out[k] = z[p->outs[k]];
 }

@@ -17,7 +17,8 @@
 #include "model_config.h"
 
 typedef struct {
-    unsigned char i, j, rho, chi;   /* arc i -> j (0-based), unary rho, binary chi of node j */
+    unsigned char i, j;             /* arc i -> j (0-based) */
+    short code;                     /* NO_ARC_CODE(unary rho, binary chi of node j) */
 } NOArc;
 
 typedef struct {
