@@ -34,8 +34,10 @@ NATIVE_DIR = "native"
 
 _c_void_p, _c_size_t, _c_int, _c_double = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int,
                                            ctypes.c_double)
-#: Prototypes taking addresses (ints) for the arrays: NumPy buffers are passed as they are.
-_SET = ctypes.CFUNCTYPE(_c_int, _c_void_p, _c_void_p, _c_size_t, _c_void_p)
+_SET_REAL = ctypes.CFUNCTYPE(_c_int, _c_void_p, ctypes.POINTER(ctypes.c_uint), _c_size_t,
+                             ctypes.POINTER(_c_double))
+_SET_INT = ctypes.CFUNCTYPE(_c_int, _c_void_p, ctypes.POINTER(ctypes.c_uint), _c_size_t,
+                            ctypes.POINTER(_c_int))
 
 
 def native_fmus(wiring: Wiring, plant_fmu, controller_fmu) -> tuple[Path, Path] | None:
@@ -56,7 +58,8 @@ def native_fmus(wiring: Wiring, plant_fmu, controller_fmu) -> tuple[Path, Path] 
 
 class _Layout:
     """How the start values of one component reach the container: for a fixed sequence of
-    names, the value references and declared start values of its Reals and Integers."""
+    names, the value references, types and declared start values as arrays, and the buffers
+    the FMI calls read (made once)."""
 
     def __init__(self, loop: "NativeContainerLoop", role: str, names: tuple):
         self.names = names
@@ -72,22 +75,35 @@ class _Layout:
             vrs.append(v.valueReference)
             start = loop._starts.get(cname)
             starts.append(math.nan if start is None else float(start))
-        kinds = np.array(kinds, dtype=bool)
-        self.real, self.int = np.flatnonzero(kinds), np.flatnonzero(~kinds)
-        vrs, starts = np.array(vrs, dtype=np.uint32), np.array(starts)
-        self.real_vr, self.int_vr = vrs[self.real], vrs[self.int]
-        self.real_start, self.int_start = starts[self.real], starts[self.int]
+        n = len(names)
+        self.is_real, self.vr = np.array(kinds, dtype=bool), np.array(vrs, dtype=np.uint32)
+        self.start = np.array(starts)
+        self.bufs = ((ctypes.c_uint * n)(), (ctypes.c_double * n)(), (ctypes.c_uint * n)(),
+                     (ctypes.c_int * n)())
+        self.views = tuple(np.frombuffer(b, dtype=t) for b, t in zip(
+            self.bufs, (np.uint32, np.float64, np.uint32, np.int32)))
 
-    def split(self, v: np.ndarray) -> tuple:
-        """``(real vrs, reals, integer vrs, integers)`` of the values ``v`` (in the order of the
-        names) that differ from the declared start values (a NaN start: always set)."""
-        r, i = v[self.real], v[self.int]
-        if not np.isfinite(r).all():
-            k = self.real[np.flatnonzero(~np.isfinite(r))[0]]
-            raise ValueError(f"value of {self.names[k]} must be finite, got {v[k]!r}")
-        dr, di = r != self.real_start, i != self.int_start
-        return (self.real_vr[dr], r[dr], self.int_vr[di],
-                np.ascontiguousarray(i[di], dtype=np.int32))
+    def set(self, loop: "NativeContainerLoop", v: np.ndarray) -> int:
+        """Set the values ``v`` (in the order of the names) that differ from the declared start
+        values (a NaN start: always set): one fmi2SetReal, one fmi2SetInteger."""
+        d = np.flatnonzero(v != self.start)
+        real = self.is_real[d]
+        rd, idd = d[real], d[~real]
+        (rvr, rval, ivr, ival), (rvr_v, rval_v, ivr_v, ival_v) = self.bufs, self.views
+        status = 0
+        if len(rd):
+            values = v[rd]
+            if not np.isfinite(values).all():
+                k = rd[np.flatnonzero(~np.isfinite(values))[0]]
+                raise ValueError(f"value of {self.names[k]} must be finite, got {v[k]!r}")
+            rvr_v[:len(rd)] = self.vr[rd]
+            rval_v[:len(rd)] = values
+            status |= loop._set_real(loop._c, rvr, len(rd), rval)
+        if len(idd):
+            ivr_v[:len(idd)] = self.vr[idd]
+            ival_v[:len(idd)] = v[idd]
+            status |= loop._set_int(loop._c, ivr, len(idd), ival)
+        return status
 
 
 def _as_dict(values) -> dict:
@@ -113,8 +129,8 @@ class NativeContainerLoop(ContainerLoop):
             "fmi2Reset", "fmi2SetupExperiment", "fmi2EnterInitializationMode",
             "fmi2ExitInitializationMode", "fmi2DoStep", "fmi2GetReal", "fmi2GetInteger",
             "fmi2GetBoolean")}
-        self._set_real = _SET(("fmi2SetReal", dll))
-        self._set_int = _SET(("fmi2SetInteger", dll))
+        self._set_real = _SET_REAL(("fmi2SetReal", dll))
+        self._set_int = _SET_INT(("fmi2SetInteger", dll))
         self._layouts: dict = {}
         self._out = {}
         for kind, ctype in (("Real", ctypes.c_double), ("Integer", ctypes.c_int),
@@ -142,12 +158,7 @@ class NativeContainerLoop(ContainerLoop):
             names, v = values
         else:
             names, v = tuple(values), np.fromiter(values.values(), float, len(values))
-        rv, r, iv, i = self._layout(role, names).split(v)
-        if len(rv):
-            status |= self._set_real(self._c, rv.ctypes.data, len(rv), r.ctypes.data)
-        if len(iv):
-            status |= self._set_int(self._c, iv.ctypes.data, len(iv), i.ctypes.data)
-        return status
+        return self._layout(role, names).set(self, v)
 
     def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
             stop_time: float | None = None, record: bool = False, **_) -> ClosedLoopResult:

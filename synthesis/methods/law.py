@@ -47,6 +47,9 @@ _FMU_NAMES["at"] = {key: slice(a, a + n) for key, a, n in (
     ("psi", 3, len(_FMU_NAMES["psi"])), ("q", 3 + len(_FMU_NAMES["psi"]), NQ_MAX),
     ("bounds", 3 + len(_FMU_NAMES["psi"]) + NQ_MAX, 3 * NU_MAX),
     ("scaling", 3 + len(_FMU_NAMES["psi"]) + NQ_MAX + 3 * NU_MAX, 2 * NX_MAX))}
+_FMU_NAMES["template"] = np.zeros(len(_FMU_NAMES["all"]))
+_FMU_NAMES["template"][_FMU_NAMES["at"]["scaling"].start::2] = 1.0
+_FMU_NAMES["upper_flat"] = _FMU_NAMES["upper"][0] * L_MAX + _FMU_NAMES["upper"][1]
 
 
 class CapacityError(MatrixError):
@@ -258,20 +261,21 @@ class NetworkOperator:
         """
         self._check_capacity()
         names, at = _FMU_NAMES, _FMU_NAMES["at"]
-        v = np.empty(len(names["all"]))
-        v[:3] = self.nx, len(self.q), len(self.outputs)
+        v = names["template"].copy()          # zeros; bounds (0, 0, 0), scaling (1, 0) unused
+        v[0], v[1], v[2] = self.nx, len(self.q), len(self.outputs)
         full = np.zeros((L_MAX, L_MAX))
         full[:self.size, :self.size] = self.psi
-        v[at["psi"]] = full[names["upper"]]
-        v[at["q"]] = 0.0
-        v[at["q"].start:at["q"].start + len(self.q)] = self.q
-        bounds = np.zeros((NU_MAX, 3))
-        bounds[:len(self.outputs)] = [(lo, hi, o) for (lo, hi), o in zip(self.bounds,
-                                                                        self.outputs)]
-        v[at["bounds"]] = bounds.ravel()
-        scaling = np.tile([1.0, 0.0], (NX_MAX, 1))
-        scaling[:self.nx] = np.column_stack([self.input_scale, self.input_offset])
-        v[at["scaling"]] = scaling.ravel()
+        np.take(full.ravel(), names["upper_flat"], out=v[at["psi"]])
+        q0 = at["q"].start
+        v[q0:q0 + len(self.q)] = self.q
+        b = at["bounds"].start
+        for (lo, hi), o in zip(self.bounds, self.outputs):
+            v[b], v[b + 1], v[b + 2] = lo, hi, o
+            b += 3
+        s = at["scaling"].start
+        for scale, offset in zip(self.input_scale, self.input_offset):
+            v[s], v[s + 1] = scale, offset
+            s += 2
         return names["all"], v
 
     def start_values(self) -> dict:
