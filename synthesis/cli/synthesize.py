@@ -70,6 +70,10 @@ def add_synthesize_command(sub) -> None:
                         "statistic=median for the sample-set problems")
     p.add_argument("--statistic", default=None, metavar="NAME",
                    help="shorthand for --option statistic=NAME")
+    p.add_argument("--input-scaling", choices=("auto", "given"), default=None,
+                   help="the law's input coordinates: 'auto' derives them from the basic law's "
+                        "flights (where it acts unsaturated), 'given' keeps the problem's "
+                        "(default: the problem's own)")
     p.add_argument("--wide-ops", action="store_true",
                    help="let variations use the authors' wider operation set (28 unary, 4 binary)")
     p.add_argument("--workers", type=int_at_least(1, MAX_WORKERS), default=2,
@@ -138,6 +142,8 @@ def apply_options(problem, args):
         raise CliError(str(exc)) from None
     if args.wide_ops:
         problem = problem.with_(unary=WIDE_UNARY, binary=WIDE_BINARY)
+    if args.input_scaling:
+        problem = problem.with_(input_scaling=args.input_scaling)
     return problem
 
 
@@ -199,6 +205,13 @@ def _summary_lines(problem, args, summary) -> list:
                                                  summary.get("pareto", [])):
             lines.append(f"  no feasible law; the best infeasible one: "
                          f"{feas['best_infeasible']['constraints']}")
+    st = summary.get("structure")
+    if st:
+        lines.append("  structure: the best law " + (
+            "keeps the basic law's form (the search tuned its parameters)"
+            if st["best_law_keeps_basic_form"] else
+            f"changes {st['best_law_matrix_changes']} entries of the basic law's matrix")
+            + f"; {st['pareto_laws_with_new_form']} Pareto laws have a new form")
     if summary.get("law_fmu_note"):
         lines.append(f"  note: {summary['law_fmu_note']}")
     return lines + problem.report.lines(summary)

@@ -59,10 +59,11 @@ AGGREGATES = {"max": max, "min": min, "sum": sum, "mean": lambda v: sum(v) / len
 class Budget:
     """How much a run spends; the run loop ends at the first limit reached."""
 
-    flights: int = setting(0, "flight budget: laws flown, each over all the problem's initial "
-                              "states (0 = none; a cma-* method needs one)", 0, 10_000_000)
-    generations: int = setting(400, "generations of the variational GA (a fixed-structure "
-                                    "search ends by flights)", 0, 10_000_000)
+    flights: int = setting(5000, "flight budget: laws flown, each over all the problem's "
+                                 "initial states (0 = none; a cma-* method needs one)",
+                           0, 10_000_000)
+    generations: int = setting(1000, "generations of the variational GA (a fixed-structure "
+                                     "search ends by flights)", 0, 10_000_000)
     seconds: float = setting(0.0, "wall-clock budget [s] (0 = none): the run ends at the first "
                                   "step past it", 0.0, 1e8)
     seed: int = setting(1, "random seed; same seed, same result", 0, 2 ** 32 - 1)
@@ -220,6 +221,9 @@ class SynthesisProblem:
         How a law is flown (the closed-loop path, racing over the initial states).
     options : tuple of ProblemOption
         Variants the command line can choose.
+    input_scaling : {"given", "auto"}
+        The basic law's input coordinates as given, or derived from its flights before the
+        search (:mod:`synthesis.run.scaling`).
     """
 
     name: str
@@ -247,8 +251,12 @@ class SynthesisProblem:
     source: str = ""
     runner: Runner = Runner()
     options: tuple = ()
+    input_scaling: str = "given"
 
     def __post_init__(self):
+        if self.input_scaling not in ("given", "auto"):
+            raise ValueError(f"problem {self.name!r}: input_scaling must be 'given' or 'auto', "
+                             f"got {self.input_scaling!r}")
         if not self.initial_states:
             raise ValueError(f"problem {self.name!r}: the set of initial states is empty")
         if len(self.penalty) != len(self.objective_names):

@@ -176,6 +176,7 @@ class ControllerInfo:
     offset: list
     outputs: list
     bounds: list
+    scaling: str = "given"
 
     @property
     def law_signals(self) -> dict:

@@ -20,6 +20,8 @@ fixed-structure baselines).  The format, key by key::
                { output = "v", scale = 0.1, offset = 0.0 } ]
     outputs = [ { input = "thrust", min = 0.0, max = 2.0 } ]   # u[1] drives 'thrust'
     # fmu = "NetworkOperatorController.fmu"            # default: the package's, FMU folder
+    # scaling = "auto"                    # the inputs' offsets and scales derived from the basic
+                                          # law's flights (where it acts unsaturated)
 
     [simulation]
     step = 0.1                            # communication step = the law's sample period [s]
@@ -128,7 +130,7 @@ _TOP = {"problem", "plant", "controller", "simulation", "initial_states", "objec
 _KEYS = {
     "problem": {"name", "description"},
     "plant": {"fmu", "parameters"},
-    "controller": {"fmu", "inputs", "outputs"},
+    "controller": {"fmu", "inputs", "outputs", "scaling"},
     "controller.inputs": {"output", "scale", "offset"},
     "controller.outputs": {"input", "min", "max"},
     "simulation": {"step", "stop_time", "stop", "path"},
@@ -182,7 +184,7 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         constraints=tuple(constraints), target=read_target(rd, data, names),
         baselines=read_baselines(rd, data, path, law), unary=ops["unary"], binary=ops["binary"],
         q_bits=q_bits, record=_record(exprs, ctrl), plant_fmu=str(plant.path),
-        controller_fmu=str(ctrl.path), runner=runner,
+        controller_fmu=str(ctrl.path), runner=runner, input_scaling=ctrl.scaling,
         source=f"file {path.name} sha256:{digest}")
 
 
@@ -269,6 +271,10 @@ def _controller_table(rd: Reader, data, plant: PlantInfo, fmu_dir) -> Controller
             raise rd.error(key, f"min = {lo} > max = {hi}")
         ctrl.outputs.append(i)
         ctrl.bounds.append((float(lo), float(hi)))
+    ctrl.scaling = rd.string(table, "controller", "scaling", "given")
+    if ctrl.scaling not in ("given", "auto"):
+        raise rd.error("controller.scaling", f"must be 'given' (the scales and offsets of the "
+                                             f"inputs table) or 'auto', got {ctrl.scaling!r}")
     if len(ctrl.inputs) > NX_MAX or len(ctrl.outputs) > NU_MAX:
         raise rd.error("controller", f"the NetworkOperatorController reads at most {NX_MAX} "
                                      f"inputs and drives at most {NU_MAX} outputs")

@@ -263,12 +263,16 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     out = Path(out)
     folder = RunFolder(out)
     st = folder.open(run_spec(problem, method), resume) or {}
+    announce = _announcer(problem, progress)
+    scaling = None
+    if problem.input_scaling == "auto":
+        announce("deriving the input scaling from the basic law's flights")
+        problem, scaling = _auto_scaled(problem, fmu_dir, folder)
     search = make_method(method, problem)
     archive = load_archive(st["archive"]) if st else ParetoArchive()
     if st:
         search.load_state(st["method"])
     curve, sim0 = list(st.get("curve", [])), st.get("simulated", 0)
-    announce = _announcer(problem, progress)
     if scheduler:
         announce("starting a Dask LocalCluster" if scheduler == "local"
                  else f"connecting to the Dask scheduler at {scheduler}")
@@ -298,9 +302,30 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
                             announce)
     summary.update(_run_fields(loop, evaluator, time.perf_counter() - t0, method, out, curve,
                                checkpoints.written))
+    if scaling is not None:
+        summary["input_scaling"] = scaling
     evaluator.close()
     write_json(out / "summary.json", summary)
     return summary
+
+
+def _auto_scaled(problem, fmu_dir, folder: RunFolder) -> tuple:
+    """The problem with its basic law in coordinates derived from its flights (the same each
+    time: a resumed run derives them again), its Gray code widened if the rewritten
+    parameters need it; what was derived is written to ``scaling.json``."""
+    from descent_fmus.synthesis.run.scaling import auto_scaling
+    problem, info = auto_scaling(problem, *problem.fmu_paths(fmu_dir))
+    q = problem.basic().q
+    ib, fb, lo, hi = problem.q_bits
+    need = max([abs(v) for v in q] + [1.0])
+    if need >= min(-lo, hi):
+        # a symmetric range of the next power of two, the same number of bits in all
+        k = max(int(np.ceil(np.log2(need))) + 1, 1)
+        ib, fb = k + 1, max(ib + fb - (k + 1), 0)
+        problem = problem.with_(q_bits=(ib, fb, -float(2 ** k), float(2 ** k)))
+        info["q_bits"] = list(problem.q_bits)
+    write_json(folder.path / "scaling.json", info)
+    return problem, info
 
 
 def _on_boundary(problem, curve: list, checkpoints: _Checkpoints, bar, evaluator, t0):
