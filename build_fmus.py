@@ -5,9 +5,9 @@ Usage: ``python build_fmus.py [--validate] [--out DIR] [--system STEM ...]``, af
 ``pip install -e .``.  The output goes to ``fmus/`` beside this file unless ``--out`` says
 otherwise.  What is built comes from the registry of systems (``synthesis/registry.py``): every
 system's pythonfmu FMU classes, then its closed loops as fmpy container FMUs (``fmpy simulate``
-runs them directly) with an SSP file beside each, then the native (C) twins of the generic
-controllers into ``native/`` and the closed loops whose plant and controller both have twins
-there (skipped, with one line, where no C compiler exists).
+runs them directly) with an SSP file beside each, then the native (C) plants and twins of the
+generic controllers into ``native/`` and the closed loops whose plant and controller both have
+twins there (skipped, with one line, where no C compiler exists).
 """
 from __future__ import annotations
 
@@ -30,6 +30,7 @@ def main(argv=None) -> int:
         from descent_fmus.synthesis.fmi.compose import (build_slave, closed_loop_fmu, with_defaults,
                                                    write_ssp)
         from descent_fmus.synthesis.fmi.native.loops import build_native_fmus
+        from descent_fmus.synthesis.fmi.native.plant_fmu import build_native_plants
         from descent_fmus.synthesis.registry import SYSTEMS, get_system
     except ImportError as exc:
         print(f"build_fmus.py: cannot import descent_fmus ({exc}); install the project first: "
@@ -65,7 +66,9 @@ def main(argv=None) -> int:
             ssp = write_ssp(w, plant, ctrl, out / f"{w.name}.ssp")
             built.append(fmu)
             print(f"built {fmu.name} and {ssp.name}")
-    # the C twins of the generic controllers, and the closed loops whose twins are all built
+    # the native plants (C generated from models/), the C twins of the generic controllers, and
+    # the closed loops whose twins are all built
+    built += build_native_plants(out / "native", [c for sy in systems for c in sy.fmus])
     built += build_native_fmus(out / "native", [s for sy in systems for s in sy.closed_loops])
     if args.validate:
         from fmpy.validation import validate_fmu

@@ -1,0 +1,34 @@
+"""Branches written so that the native-plant generator traces them as one C conditional.
+
+The native plant FMUs are C generated from these models by running their own functions on
+traced values (``synthesis/fmi/native/plant_trace.py``).  A plain ``if`` on a value is traced
+too -- one C ``if`` per path -- but everything after it is then written once per path; where
+that would multiply, a model writes the branch with these helpers instead.  On plain numbers
+they are exactly the Python expressions they name (the same operations, the same result, the
+same laziness), so a model's numbers do not change.
+
+This module needs nothing but the standard library.
+"""
+from __future__ import annotations
+
+__all__ = ["where", "clip"]
+
+
+def where(cond, if_true, if_false):
+    """``if_true if cond else if_false``.
+
+    A branch given as a zero-argument callable is evaluated only when it is taken (as Python's
+    conditional expression evaluates only its branch); a traced ``cond`` makes it a C
+    conditional whose two branches are each computed on their side only.
+    """
+    select = getattr(cond, "__where__", None)
+    if select is not None:
+        return select(if_true, if_false)
+    branch = if_true if cond else if_false
+    return branch() if callable(branch) else branch
+
+
+def clip(x, lo, hi):
+    """``min(max(x, lo), hi)``, with its rules for equal values and NaN (NaN stays NaN)."""
+    m = where(lo > x, lo, x)
+    return where(hi < m, hi, m)
