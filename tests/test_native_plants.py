@@ -63,6 +63,22 @@ CASES = {
         bad=[{"m": -5.0}, {"hf": 200000.0}, {"beta0": NAN}, {"dt": 0.0}, {"Lf": INF},
              {"beta0": 2.0}],
         statuses={1, 3}),
+    "MarsCapsule": dict(
+        flights=[
+            # the closed loop's step 0.05 s under a bang-bang-like program (u is not clipped)
+            ({}, lambda k, t, y: {"u": math.copysign(1.0, math.sin(0.4 * t))}, 300, 0.05),
+            # the whole descent to h_end (the event inside a sub-step), 1 s steps
+            ({"dt": 0.4}, _wild([{"u": 0.0}]), 700, 1.0),
+            # other capsule and entry, NaN/inf inputs (replaced by 0) and large ones
+            ({"alpha0": 0.05, "V0": 3000.0, "omega_x": 3.0, "eps": 2.0, "gamma0": -0.1,
+              "Cd": 1.2, "dt": 0.07},
+             _wild([{"u": v} for v in (NAN, 2.0, -INF, -1.0, 0.3)]), 300, 0.5),
+            # an input of 1e308 makes alpha overflow mid-flight: status 3, the state frozen
+            ({}, lambda k, t, y: {"u": 1e308 if k == 20 else 0.5}, 40, 1.0),
+        ],
+        bad=[{"Ix": 1000.0}, {"mz_alpha": 0.1}, {"h_end": 200000.0}, {"gamma0": 2.0},
+             {"alpha0": -0.1}, {"m": -1.0}, {"dt": -1.0}, {"theta1": NAN}],
+        statuses={0, 1, 3}),
 }
 
 

@@ -53,6 +53,7 @@ class PlantSpec:
 #: The native plants by model identifier.
 PLANTS = {
     "Reentry": PlantSpec("reentry:Reentry", "reentry"),
+    "MarsCapsule": PlantSpec("mars:MarsCapsule", "mars"),
 }
 
 
