@@ -363,6 +363,34 @@ class NetworkOperator:
         return NetworkOperator(psi, self.nx, q, self.outputs, self.bounds, self.input_names,
                                self.input_scale, self.input_offset)
 
+    @classmethod
+    def stack(cls, laws) -> "NetworkOperator":
+        """One law with the outputs of several laws of the same inputs: their matrices side by
+        side (the inputs shared, the parameters one after the other, then each law's nodes),
+        each output with its law's bounds.  Every law keeps its value."""
+        laws = list(laws)
+        first = laws[0]
+        for law in laws[1:]:
+            if law.nx != first.nx or law.input_scale != first.input_scale \
+                    or law.input_offset != first.input_offset:
+                raise MatrixError("stacked laws must read the same inputs with the same scaling")
+        nx = first.nx
+        nq = [len(law.q) for law in laws]
+        inner = [law.size - nx - n for law, n in zip(laws, nq)]
+        size = nx + sum(nq) + sum(inner)
+        psi = np.zeros((size, size), dtype=int)
+        outputs, bounds = [], []
+        q_at, node_at = nx, nx + sum(nq)
+        for law, n, m in zip(laws, nq, inner):
+            index = list(range(nx)) + list(range(q_at, q_at + n)) + \
+                list(range(node_at, node_at + m))
+            psi[np.ix_(index, index)] = law.psi
+            outputs += [index[o - 1] + 1 for o in law.outputs]
+            bounds += list(law.bounds)
+            q_at, node_at = q_at + n, node_at + m
+        return cls(psi, nx, [v for law in laws for v in law.q], outputs, bounds,
+                   list(first.input_names), list(first.input_scale), list(first.input_offset))
+
     def with_inputs(self, names, scales=None, offsets=None) -> "NetworkOperator":
         """This law reading more inputs: ``names`` extend :attr:`input_names` (they must start
         with them); the new inputs become source nodes no arc leaves yet (a structural

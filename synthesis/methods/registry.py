@@ -19,7 +19,7 @@ import numpy as np
 from descent_fmus.synthesis.methods.base import Method
 
 __all__ = ["MethodEntry", "register", "unregister", "method_names", "make_method",
-           "UnknownMethodError", "NETWORK_OPERATOR"]
+           "UnknownMethodError", "NETWORK_OPERATOR", "baseline_structures", "cma_target"]
 
 NETWORK_OPERATOR = "network-operator"
 
@@ -108,23 +108,35 @@ def _network_operator(problem, variant=None) -> Method:
     return VariationalGA(GrayCodec(len(basic.q), ib, fb, lo, hi), basic.q,
                          np.random.default_rng(problem.budget.seed), problem.ga, structure,
                          basic.psi, basic.with_structure,
-                         target=problem.target if uses_target else None,
+                         target=cma_target(problem) if uses_target else None,
                          refine=problem.refine, generations=problem.budget.generations)
 
 
-def _baselines(problem) -> list:
-    if problem.target is None or problem.baselines is None:
-        return []
-    return list(problem.baselines())
+def baseline_structures(problem) -> dict:
+    """The problem's fixed structures (its own, else the defaults built from its basic law's
+    inputs and outputs: :func:`synthesis.methods.structures.default_baselines`)."""
+    if problem.baselines is not None:
+        return problem.baselines()
+    from descent_fmus.synthesis.methods.structures import default_baselines
+    return default_baselines(problem.basic())
+
+
+def cma_target(problem):
+    """What CMA-ES minimises for ``problem``: its target, else its first objective (after its
+    constraints)."""
+    from descent_fmus.synthesis.methods.pareto import Target
+    return problem.target if problem.target is not None else Target(0)
 
 
 def _policy_search(problem, variant) -> Method:
     from descent_fmus.synthesis.methods.policy_search import PolicySearch
-    return PolicySearch(problem.baselines()[variant], problem.target, seed=problem.budget.seed)
+    return PolicySearch(baseline_structures(problem)[variant], cma_target(problem),
+                        seed=problem.budget.seed)
 
 
 register(MethodEntry(NETWORK_OPERATOR, _network_operator,
                      summary="the variational GA of the network operator (structure and "
                              "parameters), with CMA-ES refinement of promising laws"))
-register(MethodEntry("cma-", _policy_search, variants=_baselines, needs_flights=True,
+register(MethodEntry("cma-", _policy_search, variants=lambda p: list(baseline_structures(p)),
+                     needs_flights=True,
                      summary="CMA-ES over the parameters of one fixed law structure"))

@@ -136,3 +136,93 @@ def tanh_network_law(template: NetworkOperator, hidden: int = 3, weights=None,
         psi[node, total] = 1
         node += 1
     return _finish(psi, nx, q, total, size, template)
+
+
+# -- the default baselines of any problem ---------------------------------------------------------
+def _single_output(basic: NetworkOperator, k: int) -> NetworkOperator:
+    """The basic law's inputs and scaling with its output ``k`` alone (a template)."""
+    return NetworkOperator(basic.psi, basic.nx, basic.q, [basic.outputs[k]], [basic.bounds[k]],
+                           list(basic.input_names), list(basic.input_scale),
+                           list(basic.input_offset))
+
+
+def _fits(law: NetworkOperator) -> bool:
+    from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX
+    return law.size <= L_MAX and len(law.q) <= NQ_MAX
+
+
+def probe_inputs(law: NetworkOperator, n: int = 256, seed: int = 0,
+                 spread: float = 1.0) -> np.ndarray:
+    """``n`` seeded input points (plant units) where the law's scaled inputs lie in
+    [-spread, spread]: by default the region its input scaling says it acts on."""
+    z = np.random.default_rng(seed).uniform(-spread, spread, (n, law.nx))
+    return np.asarray(law.input_offset) + z / np.asarray(law.input_scale)
+
+
+def fit_parameters(law: NetworkOperator, target: NetworkOperator, free=None,
+                   points=None) -> NetworkOperator:
+    """``law`` with its parameters ``free`` (default all) chosen by least squares so that its
+    unclipped outputs match ``target``'s on probe points (:func:`probe_inputs` of ``target``).
+    ``law``'s outputs must be linear in the free parameters and vanish with them (a polynomial,
+    a linear law, a network's output layer): each column of the fit is the law with one free
+    parameter set to 1."""
+    points = probe_inputs(target) if points is None else points
+    free = list(range(len(law.q))) if free is None else list(free)
+    base = np.array(law.q, float)
+    base[free] = 0.0
+    want = np.array([target.raw(x) for x in points], float).ravel()
+    cols = []
+    for i in free:
+        q = base.copy()
+        q[i] = 1.0
+        trial = law.with_q(list(q))
+        cols.append(np.array([trial.raw(x) for x in points], float).ravel())
+    fixed = law.with_q(list(base))
+    rest = np.array([fixed.raw(x) for x in points], float).ravel()
+    ok = np.isfinite(want) & np.all(np.isfinite(cols), axis=0) & np.isfinite(rest)
+    if not ok.any():
+        return law
+    sol, *_ = np.linalg.lstsq(np.array(cols).T[ok], (want - rest)[ok], rcond=None)
+    q = base.copy()
+    q[free] = sol
+    return law.with_q(list(q))
+
+
+def default_baselines(basic: NetworkOperator, seed: int = 0) -> dict:
+    """The fixed structures of the CMA-ES baselines of any problem, built from its basic law's
+    inputs, outputs, bounds and input scaling, each started at the least-squares fit of the
+    basic law (``synthesize --method cma-NAME``):
+
+    * ``linear`` -- u_k = sum_i g_ki x_i + b_k;
+    * ``polynomial`` -- a full polynomial per output, of the highest degree <= 3 the generic
+      controller holds (its 32 nodes, 16 parameters); left out if only degree 1 fits;
+    * ``tanh`` -- a one-hidden-layer tanh network per output, of the most hidden units the
+      controller holds (seeded random first layer, its output layer fitted).
+    """
+    outs = range(len(basic.outputs))
+    nx, nu = basic.nx, len(basic.outputs)
+    out = {}
+    linear = NetworkOperator.linear([[0.0] * nx] * nu, size=nx + nu * (nx + 1) + nu * (nx + 1),
+                                    bounds=basic.bounds, input_names=basic.input_names,
+                                    input_scale=basic.input_scale,
+                                    input_offset=basic.input_offset)
+    if _fits(linear):
+        out["linear"] = fit_parameters(linear, basic)
+    for degree in (3, 2):
+        try:
+            law = NetworkOperator.stack([polynomial_law(_single_output(basic, k), degree)
+                                         for k in outs])
+        except ValueError:
+            continue
+        if _fits(law):
+            out["polynomial"] = fit_parameters(law, basic)
+            break
+    for hidden in range(8, 0, -1):
+        laws = [tanh_network_law(_single_output(basic, k), hidden, seed=seed + k) for k in outs]
+        law = NetworkOperator.stack(laws)
+        if _fits(law):
+            per = len(laws[0].q)
+            readout = [k * per + j for k in outs for j in range(per - hidden - 1, per)]
+            out["tanh"] = fit_parameters(law, basic, readout)
+            break
+    return out
