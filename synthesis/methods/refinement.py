@@ -32,10 +32,10 @@ __all__ = ["RefineConfig", "Refinement"]
 class RefineConfig:
     """CMA-ES refinement of the parameters inside the network-operator search (0 = off)."""
 
-    basis: int = setting(0, "CMA-ES evaluations on the basic solution's parameters before the "
-                            "structure search (0 = none)", 0, 10_000_000)
-    evals: int = setting(0, "CMA-ES evaluations per refined law after every epoch (0 = the "
-                            "GA alone)", 0, 10_000_000)
+    basis: int = setting(1000, "CMA-ES evaluations on the basic solution's parameters before "
+                               "the structure search (0 = none)", 0, 10_000_000)
+    evals: int = setting(200, "CMA-ES evaluations per refined law after every epoch (0 = the "
+                              "GA alone)", 0, 10_000_000)
     laws: int = setting(1, "laws refined after every epoch: the best by the target, distinct "
                            "structures", 1, 64)
     sigma: float = setting(0.3, "initial CMA-ES step, relative to each parameter's size",

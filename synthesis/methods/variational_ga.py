@@ -62,20 +62,23 @@ class GAConfig:
 
     # [choice] maxima: the dominance counts of a population of n laws take n^2 (2 m + 1)
     # bytes (150 MB at 5000 laws, 2 objectives); a generation's children are 4 crossovers
-    population: int = setting(256, "individuals in the population", 4, 5_000)
+    population: int = setting(128, "individuals in the population", 4, 5_000)
     crossovers: int = setting(32, "crossover attempts per generation (4 children each)",
                               1, 10_000)
     lchr: int = setting(8, "variations per individual (0 = parameters of the basic law only)",
                         0, 256)
-    epoch: int = setting(12, "generations between changes of the basic solution", 1, 1_000_000)
+    epoch: int = setting(10, "generations between changes of the basic solution", 1, 1_000_000)
     p_mutation: float = setting(0.7, "probability that a child mutates", 0.0, 1.0)
     alpha: float = setting(0.4, "crossover probability (1 + alpha Lh) / (1 + Lh)", 0.0, 1e6)
     ksearch: int = setting(4, "tournament size for the first parent", 1, 1_000)
     elite_trim: int = setting(4, "Pareto members whose variation lists are trimmed per epoch",
                               0, 64)
-    basis_rule: str = setting("compromise", "the epoch's new basis: 'compromise' (nearest the "
-                              "utopia point, the lab's rule) or 'target' (best by the target)",
-                              choices=("compromise", "target"))
+    basis_rule: str = setting("target", "the epoch's new basis: 'target' (the best law by "
+                              "the target) or 'compromise' (nearest the utopia point, the lab's "
+                              "rule)", choices=("target", "compromise"))
+    equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
+                                          "flown before is recognised and not flown again "
+                                          "(0 = off)", 0, 256)
 
     def __post_init__(self):
         check_settings(self, "ga.")
@@ -114,7 +117,7 @@ class VariationalGA(Method):
     target : Target, optional
         The single objective of the refinement and of ``basis_rule='target'``.
     refine : RefineConfig, optional
-        CMA-ES refinement of the parameters (default: off).
+        CMA-ES refinement of the parameters (default: off; a problem's recipe has it on).
     generations : int, optional
         Generations after which :meth:`finished` (default: never).
     """
@@ -123,7 +126,7 @@ class VariationalGA(Method):
                  structure: StructureCodec | None = None, psi0=None, decode=None,
                  target: Target | None = None, refine: RefineConfig | None = None,
                  generations: int | None = None):
-        refine = refine or RefineConfig()
+        refine = refine if refine is not None else RefineConfig(basis=0, evals=0)
         if (refine.active or config.basis_rule == "target") and target is None:
             raise ValueError("parameter refinement (refine evals or basis > 0) or basis_rule "
                              "'target' needs a target")

@@ -8,6 +8,10 @@ the plant's Python: it is built from FMU paths and a problem.  Where the laws fl
 business (:mod:`synthesis.run.backends`: in-process, local processes, Dask); the rules are here:
 
 * identical candidates are not flown twice (a cache of the last :data:`CACHE_SIZE` laws' outcomes;
+  with ``equivalence_probes`` > 0 (the recipe's GA setting) a law whose unclipped outputs equal
+  those of a law flown before on that many fixed input points -- the same function written
+  differently, as the GA's variations often make -- takes that law's outcome without a flight,
+  as machine-learning-control toolboxes do;
   a law flown before is never counted as a new flight again, so a flight budget counts distinct
   laws, and a resumed run, which starts with an empty cache, counts exactly as an uninterrupted
   one: the fingerprints of the flown laws are part of the run's checkpoint);
@@ -73,6 +77,28 @@ def law_key(law) -> bytes:
     return h.digest()
 
 
+def _probes(problem):
+    """The fixed input points of the equivalence test (None: off)."""
+    n = getattr(problem.ga, "equivalence_probes", 0)
+    if not n:
+        return None
+    from descent_fmus.synthesis.methods.structures import probe_inputs
+    basic = problem.basic()       # half where the inputs' scaling says the law acts, half wider
+    return np.vstack([probe_inputs(basic, n - n // 2, seed=12345),
+                      probe_inputs(basic, n // 2, seed=54321, spread=4.0)])
+
+
+def _behaviour_key(law, points) -> bytes | None:
+    """The law's unclipped outputs on ``points``, to 12 significant digits, hashed (None when
+    the law cannot be evaluated here: the FMU will say why)."""
+    try:
+        values = [v for x in points for v in law.raw(x)]
+    except Exception:
+        return None
+    text = ",".join(f"{v:.12g}" for v in values)
+    return hashlib.blake2b(text.encode(), digest_size=16).digest()
+
+
 class Evaluator:
     """Objective rows of candidate laws, through the FMUs (see the module docstring).
 
@@ -113,6 +139,9 @@ class Evaluator:
         self.backend = backend or make_backend(problem, self.fmus, workers, scheduler,
                                                connect_timeout)
         self.cache: OrderedDict = OrderedDict()     # fingerprint -> Outcome, recent last
+        self.behaviour: OrderedDict = OrderedDict()  # behaviour key -> fingerprint flown
+        self.equivalent = 0                          # laws not flown: equivalent to one flown
+        self._probes = _probes(problem)
         self.flown: set = set()                     # fingerprints of every law flown in the run
         self.new_flown: list = []                   # ... of those not yet in a checkpoint
         self.simulated = 0
@@ -153,6 +182,7 @@ class Evaluator:
         check_stop()
         keys = [law_key(law) for law in laws]
         todo = list({k: law for k, law in zip(keys, laws) if k not in self.cache}.items())
+        todo = self._known_behaviour(todo)
         first = 0
         if todo:
             results = self.backend.fly([law for _, law in todo])
@@ -182,6 +212,26 @@ class Evaluator:
                                                          len(self.problem.objective_names))
         return Evaluation(F, np.array([o.cv for o in rows], float), [o.extras for o in rows],
                           first)
+
+    def _known_behaviour(self, todo: list) -> list:
+        """``todo`` without the laws equivalent to a law in the cache (their outcome is taken
+        from it); each law to fly is remembered by its behaviour."""
+        if self._probes is None:
+            return todo
+        out = []
+        for k, law in todo:
+            b = _behaviour_key(law, self._probes)
+            known = self.behaviour.get(b)
+            if b is not None and known is not None and known in self.cache:
+                self.cache[k] = self.cache[known]
+                self.equivalent += 1
+                continue
+            if b is not None:
+                self.behaviour[b] = k
+                while len(self.behaviour) > CACHE_SIZE:
+                    self.behaviour.popitem(last=False)
+            out.append((k, law))
+        return out
 
     def restore_flown(self, fingerprints) -> None:
         """The laws a resumed run had flown before its checkpoint (not new flights again)."""

@@ -74,6 +74,29 @@ def feasibility(problem, evaluator) -> dict:
     return out
 
 
+def structure(problem, archive) -> dict:
+    """What the structure search bought: whether the run's best law by the target (the
+    problem's CMA-ES target, else its first objective) keeps the basic law's form -- the same
+    matrix, only other parameters -- or changed it, and how many Pareto laws did."""
+    from descent_fmus.synthesis.methods.registry import cma_target
+    if not len(archive):
+        return {}
+    basic = problem.basic()
+    items = archive.items
+
+    def changed(law) -> int:
+        if law.psi.shape != basic.psi.shape:
+            return int(max(law.psi.size, basic.psi.size))
+        return int(np.count_nonzero(law.psi != basic.psi))
+
+    k = int(cma_target(problem).order(archive.F, archive.cv)[0])
+    best = items[k][0].law
+    n = changed(best)
+    return {"best_law_matrix_changes": n, "best_law_keeps_basic_form": n == 0,
+            "pareto_laws_with_new_form": sum(1 for c, _, _ in items if changed(c.law)),
+            "best_law": readable_text(best)}
+
+
 def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
                   reference: bool, announce=None) -> dict:
     """Write the Pareto set (the archive's items ``(Candidate, f, cv)``), its figure and, as
@@ -102,6 +125,8 @@ def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
     if problem.constraints:
         summary["basic_law"]["violation"] = float(basic.cv[0])
         summary["feasibility"] = feasibility(problem, evaluator)
+    summary["structure"] = structure(problem, archive)
+    summary["equivalent_laws_not_flown"] = evaluator.equivalent
     if reference:
         announce("computing the problem's reference")
     summary.update(problem.report.summary(rows, out, reference))

@@ -56,12 +56,15 @@ REENTRY_RECIPE = recipe(population=128, generations=200, crossovers=32, lchr=8, 
                         seed=2, refine_evals=2000, refine_laws=1, refine_basis=8000,
                         flights=20_000, basis_rule="target")
 #: The robust variant costs 5 flights per law: smaller population, fewer generations.
-ROBUST_RECIPE = recipe(population=128, generations=150, crossovers=32, lchr=8, epoch=12, seed=1)
+#: (The GA alone, as measured: no flight budget, no CMA-ES refinement, the lab's basis rule.)
+ROBUST_RECIPE = recipe(population=128, generations=150, crossovers=32, lchr=8, epoch=12, seed=1,
+                       flights=0, refine_basis=0, refine_evals=0, basis_rule="compromise")
 #: Default budget of the robust problems [choice]: about 20 min with 2 workers on a 2-core
 #: machine (benchmarks/reentry_robust.py measures the evaluation rate); ``flights`` is the
 #: evaluation budget of the CMA-ES baseline (--method cma-polynomial), about what the GA spends.
 SENSED_RECIPE = recipe(population=48, generations=40, crossovers=12, lchr=8, epoch=10, seed=1,
-                       refine_evals=150, refine_laws=1, flights=2600)
+                       refine_evals=150, refine_laws=1, flights=2600, refine_basis=0,
+                       basis_rule="compromise")
 #: Default budget of ``reentry-guided`` [choice]: a law costs up to 16 flights of ~0.15 s (the
 #: on-board predictions), so the run stops after 600 law evaluations (about 10 min with 2
 #: workers); CMA-ES tunes the basic solution's parameters first (120 evaluations; its shape is
@@ -87,6 +90,10 @@ SCALED_Q_BITS = (15, 18, -16384.0, 16384.0)
 #: The robust variant has no CMA-ES refinement: its parameters are searched by the Gray-coded
 #: bit flips alone, which a narrow range keeps small (6 + 18 bits over [-64, 64)).
 ROBUST_Q_BITS = (6, 18, -64.0, 64.0)
+#: Gray code of the automatically scaled cubic [choice]: 15 + 33 bits over [-16384, 16384) --
+#: the range of the (10 y1, 2 y2) scaling, whose near-optimal coefficients reach thousands, on
+#: the fine grid (1.2e-10) the window runs needed.
+AUTO_Q_BITS = (15, 33, -16384.0, 16384.0)
 
 #: Which closed-loop path the robust problems fly [choice] (benchmarks/reentry_robust.py): the
 #: container FMU costs about as much CPU as the Python master for the two-input law and more for
@@ -123,6 +130,14 @@ def nominal_problems() -> tuple:
             target=TARGET_TIGHT, baselines=baseline_structures,
             description="S1 Earth reentry, tight miss: as reentry, CMA-ES target J1 subject to "
                         "a miss below 100 m"),
+        SynthesisProblem(
+            name="reentry-auto", wiring=WIRING, initial_states=(plant_values(ReentryParams()),),
+            objectives=nominal_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
+            basic_law=robust_basic_law(), **REENTRY_RECIPE, objective_labels=_LABELS,
+            q_bits=AUTO_Q_BITS, report=ReentryReport(), source="system reentry",
+            target=TARGET, baselines=baseline_structures, input_scaling="auto",
+            description="S1 Earth reentry as reentry, the inputs' coordinates derived from the "
+                        "basic law's flight instead of the hand-picked window"),
         SynthesisProblem(
             name="reentry-robust", wiring=WIRING,
             initial_states=tuple(plant_values(ReentryParams(**c)) for c in ROBUST_CASES),
