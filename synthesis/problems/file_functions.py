@@ -6,17 +6,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from descent_fmus.synthesis.problems.contract import AGGREGATES
-from descent_fmus.synthesis.problems.expressions import Expression, reduce_signal
+from descent_fmus.synthesis.problems.expressions import Expression
 
 __all__ = ["FileObjective", "FileObjectives", "FlightExpression"]
 
 
 @dataclass(frozen=True)
 class FlightExpression:
-    """One expression evaluated on one flight: the reductions of its signals (``final`` from
-    the plant's final outputs), plus ``unmet_stop_penalty`` for a flight the stop condition
-    never ended."""
+    """One expression evaluated on one flight: each of its reductions (``final`` from the
+    plant's final outputs, the others from the recorded signals), plus ``unmet_stop_penalty``
+    for a flight the stop condition never ended."""
 
     expression: Expression
     law_outputs: tuple        # (signal name "u1", controller output "u[1]") pairs
@@ -24,21 +26,36 @@ class FlightExpression:
     unmet_stop_penalty: float = 0.0
 
     def __call__(self, r) -> float:
-        law = dict(self.law_outputs)
-        values = {}
-        for fn, name in self.expression.reductions:
-            if name in law:
-                x = r.outputs.get("ctrl." + law[name], ())
-                final = float(x[-1]) if len(x) else math.nan
-            else:
-                x = r.outputs.get(name, ())
-                final = float(r.final[name])
-            values[(fn, name)] = reduce_signal(fn, r.time, x, final)
+        expr, law = self.expression, dict(self.law_outputs)
         special = {"tf": r.t_final, "stopped": 1.0 if r.stopped else 0.0}
-        v = self.expression.evaluate(values, special)
+        values = []
+        for k, term in enumerate(expr.terms):
+            if term.function == "final":
+                point = {s: _final(r, s, law) for s in term.signals}
+                values.append(expr.at_point(k, point, special))
+            else:
+                recorded = {s: _recorded(r, s, law) for s in term.signals}
+                values.append(expr.reduce(k, np.asarray(r.time, dtype=float), recorded,
+                                          special))
+        v = expr.evaluate(values, special)
         if self.has_stop and not r.stopped and self.unmet_stop_penalty:
             v += self.unmet_stop_penalty
         return v
+
+
+def _recorded(r, name: str, law: dict) -> np.ndarray:
+    """Signal ``name`` at every communication point of flight ``r`` (empty if not recorded)."""
+    x = r.outputs.get("ctrl." + law[name] if name in law else name, ())
+    return np.asarray(x, dtype=float)
+
+
+def _final(r, name: str, law: dict) -> float:
+    """Signal ``name`` at the end of flight ``r``: a plant output from the plant's final
+    outputs, a law output from its recording (NaN if none)."""
+    if name in law:
+        x = r.outputs.get("ctrl." + law[name], ())
+        return float(x[-1]) if len(x) else math.nan
+    return float(r.final[name])
 
 
 @dataclass(frozen=True)

@@ -44,10 +44,14 @@ fixed-structure baselines).  The format, key by key::
     unmet_stop_penalty = 100.0            # added for a flight the stop condition never ended
     penalty = 1e6                         # a law whose evaluation fails gets this
 
+    [[objectives]]                        # a reduction of an expression of signals (evaluated
+    name = "effort"                       # at every communication point, then reduced)
+    flight = "integral(h**2 + 0.1 * u1**2)"            # quadratic cost (u1: the law's output)
+
     [[constraints]]                       # optional: feasibility first, then Pareto rank
     name = "soft"
-    flight = "abs(final(v))"              # per flight
-    sense = "<="                          # "<=" (default) or ">="
+    flight = "max(abs(v))"                # per flight: the peak of |v| (max of ONE argument
+    sense = "<="                          # is a reduction; max(a, b) the larger of a and b)
     bound = 2.0
     over_states = "max"                   # max (every start) | min | mean | sum
     # scale = 1.0                         # unit of the violation (default max(|bound|, 1))
@@ -368,10 +372,12 @@ def _flight_expression(rd: Reader, item: dict, key: str, plant: PlantInfo, ctrl:
         expr = Expression(rd.string(item, key, "flight"), signals)
     except ExpressionError as exc:
         raise rd.error(f"{key}.flight", str(exc)) from None
-    for fn, sig in expr.reductions:
-        if fn != "final" and sig not in ctrl.law_signals and sig not in plant.real_outputs:
-            raise rd.error(f"{key}.flight", f"{fn}({sig}) needs a Real signal; {sig!r} is "
-                                            f"{plant.vars[sig].type}")
+    for term in expr.terms:       # recorded signals are Reals; final() reads any type
+        for sig in sorted(set(term.signals) - set(ctrl.law_signals) - set(plant.real_outputs)):
+            if term.function != "final":
+                raise rd.error(f"{key}.flight", f"{term} needs Real signals; {sig!r} is "
+                                                f"{plant.vars[sig].type} (only final() reads "
+                                                f"Integer and Boolean outputs)")
     unmet = float(rd.number(item, key, "unmet_stop_penalty", 0.0))
     if unmet and stop is None:
         raise rd.error(f"{key}.unmet_stop_penalty", "needs [simulation].stop (a flight can "
@@ -424,14 +430,13 @@ def _constraints(rd: Reader, data, plant, ctrl, signals, stop) -> list:
 
 
 def _record(exprs, ctrl: ControllerInfo) -> tuple:
-    """The plant outputs the expressions need at every communication point (none when only
-    final values are read: the fastest flights); law outputs switch recording on."""
+    """The plant outputs named inside every reduction but ``final`` (read from the final outputs),
+    then ``ctrl.u[k]`` of the law outputs named in any (they switch recording on); empty when
+    every reduction is a ``final`` of plant outputs: the fastest flights, recorded at no point."""
     law = ctrl.law_signals
-    record = sorted({sig for e in exprs for fn, sig in e.reductions
-                     if fn != "final" and sig not in law})
-    if any(sig in law for e in exprs for _, sig in e.reductions):
-        record.append("ctrl.u[1]")
-    return tuple(record)
+    plant = {sig for e in exprs for fn, sig in e.reductions if fn != "final" and sig not in law}
+    controller = {"ctrl." + law[sig] for e in exprs for _, sig in e.reductions if sig in law}
+    return tuple(sorted(plant)) + tuple(sorted(controller))
 
 
 def _basic_law(rd: Reader, data, path: Path, ctrl: ControllerInfo):
