@@ -37,6 +37,7 @@ import math
 
 from descent_fmus.models.mars import (MarsCapsule, MarsIntegrator, MarsParams, descent,
                                      precession)
+from descent_fmus.models.traceable import minimum, where
 
 __all__ = ["rhs6", "observe6", "initial_state6", "Mars6DOFIntegrator", "MarsCapsule6DOF",
            "OUTPUTS6", "DT_6DOF"]
@@ -79,8 +80,8 @@ def observe6(x, args):
     w2r = half - wa
     m1y = (vx * wy - w2r * vy) / (2.0 * wa)
     m1z = (vx * wz - w2r * vz) / (2.0 * wa)
-    a1 = math.asin(min(1.0, math.hypot(m1y, m1z)))
-    a2 = math.asin(min(1.0, math.hypot(vy - m1y, vz - m1z)))
+    a1 = math.asin(minimum(1.0, math.hypot(m1y, m1z)))
+    a2 = math.asin(minimum(1.0, math.hypot(vy - m1y, vz - m1z)))
     return (alpha, theta, w, wd, wa, q, dq, omega_x - 0.5 * ix_bar * omega_x - wa, h, V, gamma,
             s, wx, wy, wz, a1, _phase(m1y, m1z), a2)
 
@@ -88,7 +89,7 @@ def observe6(x, args):
 def _phase(y, z):
     """theta of a body-axis direction (y, z): -atan2(z, y) - pi/2 wrapped to (-pi, pi]."""
     theta = -math.atan2(z, y) - _HALF_PI
-    return theta + 2.0 * math.pi if theta <= -math.pi else theta
+    return where(theta <= -math.pi, lambda: theta + 2.0 * math.pi, theta)
 
 
 #: Names of :func:`observe6`'s values (the FMU's Real outputs besides t_end).

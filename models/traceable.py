@@ -11,7 +11,7 @@ This module needs nothing but the standard library.
 """
 from __future__ import annotations
 
-__all__ = ["where", "clip"]
+__all__ = ["where", "clip", "minimum", "maximum", "first_smallest"]
 
 
 def where(cond, if_true, if_false):
@@ -32,3 +32,30 @@ def clip(x, lo, hi):
     """``min(max(x, lo), hi)``, with its rules for equal values and NaN (NaN stays NaN)."""
     m = where(lo > x, lo, x)
     return where(hi < m, hi, m)
+
+
+def minimum(first, *rest):
+    """``min(first, *rest)`` with its rules: a later value replaces the current one only if it
+    is smaller (so the first of equal values, and a NaN only where ``min`` keeps it)."""
+    m = first
+    for v in rest:
+        m = where(v < m, v, m)
+    return m
+
+
+def maximum(first, *rest):
+    """``max(first, *rest)`` with its rules (a later value replaces the current one only if it
+    is larger)."""
+    m = first
+    for v in rest:
+        m = where(v > m, v, m)
+    return m
+
+
+def first_smallest(pairs):
+    """``min(pairs, key=lambda p: p[1])``: the first of the pairs ``(label, value)`` whose value
+    is the smallest."""
+    best = pairs[0]
+    for p in pairs[1:]:
+        best = where(p[1] < best[1], p, best)
+    return best

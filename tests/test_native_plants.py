@@ -79,6 +79,17 @@ CASES = {
         bad=[{"Ix": 1000.0}, {"mz_alpha": 0.1}, {"h_end": 200000.0}, {"gamma0": 2.0},
              {"alpha0": -0.1}, {"m": -1.0}, {"dt": -1.0}, {"theta1": NAN}],
         statuses={0, 1, 3}),
+    "MarsCapsule6DOF": dict(
+        flights=[
+            ({}, lambda k, t, y: {"u": math.copysign(1.0, math.sin(0.4 * t))}, 200, 0.05),
+            # the whole descent on a coarser sub-step (the event inside a sub-step)
+            ({"dt": 0.08}, _wild([{"u": 0.2}]), 700, 1.0),
+            ({"alpha0": 0.3, "theta0": 2.5, "omega_x": 4.0, "Ix": 300.0, "dt": 0.03},
+             _wild([{"u": v} for v in (NAN, 2.0, -INF, -1.0, 0.3)]), 200, 0.25),
+            ({}, lambda k, t, y: {"u": 1e308 if k == 20 else 0.5}, 40, 0.5),
+        ],
+        bad=[{"Ix": 1000.0}, {"mz_alpha": 0.0}, {"alpha0": 1.6}, {"dt": 0.0}, {"R": -1.0}],
+        statuses={0, 1, 3}),
 }
 
 

@@ -34,13 +34,15 @@ class Unit:
         self.prefix = prefix
         self.functions: list = []          # (name, text, static)
         self._names: dict = {}
+        self._count: dict = {}
 
     def add(self, stem: str, render, static: bool = True) -> str:
         """``render(name) -> text``; the same text under one name."""
         probe = render("@NAME@")
         if probe in self._names:
             return self._names[probe]
-        name = f"{self.prefix}_{stem}{sum(1 for n, _, _ in self.functions if stem in n) + 1}"
+        self._count[stem] = self._count.get(stem, 0) + 1
+        name = f"{self.prefix}_{stem}{self._count[stem]}"
         self._names[probe] = name
         self.functions.append((name, render(name), static))
         return name

@@ -54,6 +54,7 @@ class PlantSpec:
 PLANTS = {
     "Reentry": PlantSpec("reentry:Reentry", "reentry"),
     "MarsCapsule": PlantSpec("mars:MarsCapsule", "mars"),
+    "MarsCapsule6DOF": PlantSpec("mars_6dof:MarsCapsule6DOF", "mars6dof"),
 }
 
 

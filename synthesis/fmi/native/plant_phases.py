@@ -154,6 +154,7 @@ class PlantCode:
         self.call_shapes = None
         self.integrator = None
         self.publish = hasattr(cls, "_publish")
+        self.assumed: dict = {}
 
     # -- the traced FMU instance ---------------------------------------------------------------
     def _bind(self, inst) -> None:
@@ -191,12 +192,15 @@ class PlantCode:
     def trace_check(self) -> str:
         tracer = Tracer(f"{self.prefix} check")
         tree = explore(tracer, lambda: self.inst.check_parameters())
+        # every later phase runs only with parameters that passed the check (fmi2_cs.c prepares
+        # after model_check, steps after a successful initialisation): its conditions hold there
+        self.assumed = tree.conditions(lambda result: result[0] == "return")
         return self._function("check", "int @NAME@(const double *r, const int *iv, char *msg)",
                                ("r", "iv", "msg"), tree, self._scope(tracer, {}, False),
                                lambda value, scope, ind: [f"{ind}return PC_OK;"])
 
     def trace_start(self) -> str:
-        tracer = Tracer(f"{self.prefix} start")
+        tracer = Tracer(f"{self.prefix} start", self.assumed)
         inst = self.inst
         before = dict(vars(inst))
 
@@ -264,7 +268,7 @@ class PlantCode:
         return ig
 
     def trace_inputs(self) -> str:
-        tracer = Tracer(f"{self.prefix} inputs")
+        tracer = Tracer(f"{self.prefix} inputs", self.assumed)
         inst = self.inst
         t, h = self.TH.sym(0), self.TH.sym(1)
         do_step = type(inst).do_step
@@ -294,7 +298,7 @@ class PlantCode:
                               tree, self._scope(tracer, {}), _writes_leaf("call"))
 
     def trace_advance(self) -> str:
-        tracer = Tracer(f"{self.prefix} advance")
+        tracer = Tracer(f"{self.prefix} advance", self.assumed)
 
         def body():
             ig = self._proxy(tracer)
@@ -316,7 +320,7 @@ class PlantCode:
                               _writes_leaf("S"))
 
     def trace_outputs(self) -> str:
-        tracer = Tracer(f"{self.prefix} outputs")
+        tracer = Tracer(f"{self.prefix} outputs", self.assumed)
         inst, outputs = self.inst, self.iface.of("output")
 
         def body():

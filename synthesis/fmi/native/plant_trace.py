@@ -190,6 +190,7 @@ class Node:
 
     events: list = field(default_factory=list)
     cond: tuple | None = None
+    skey: tuple | None = None         # the condition's expression (Tracer.skey)
     options: tuple = ()
     children: dict = field(default_factory=dict)
     result: tuple | None = None       # ("return", value) | ("raise", message, holes) | ("error",)
@@ -200,15 +201,36 @@ class Node:
         for child in self.children.values():
             yield from child.leaves()
 
+    def conditions(self, ok) -> dict:
+        """The conditions (structural key -> value) every path to a leaf with ``ok(result)``
+        has decided the same way: what holds wherever such a leaf is reached."""
+        found = []
+
+        def walk(node, path):
+            if node.cond is None:
+                if ok(node.result):
+                    found.append(dict(path))
+                return
+            for index, child in node.children.items():
+                walk(child, path + [(node.skey, node.options[index])])
+        walk(self, [])
+        if not found:
+            return {}
+        common = found[0]
+        for other in found[1:]:
+            common = {k: v for k, v in common.items() if other.get(k, not v) == v}
+        return common
+
 
 class Tracer:
     """Records one traced function (all its paths, :func:`explore`)."""
 
-    def __init__(self, name: str, inputs: dict | None = None):
+    def __init__(self, name: str, assumed: dict | None = None):
         self.name = name
-        #: render hints of the function's own inputs: load space -> C array name
-        self.inputs = inputs or {}
-        self.hooks = {}                  # e.g. "slot_view": the object whose slots it reads
+        #: conditions known to hold wherever the function runs (structural key -> value, e.g.
+        #: the parameter check passed): decided without a branch
+        self.assumed = dict(assumed or {})
+        self.hooks = {}                  # e.g. "slots": the plant's SlotView
         self._begin(())
 
     # -- one run -------------------------------------------------------------------------------
@@ -222,6 +244,7 @@ class Tracer:
         self.next_id = 0
         self.versions: dict = {}         # load space -> store count (loads after a store differ)
         self.path: list = []             # (events index, decision) for the tree
+        self.skeys: dict = {}            # id -> structural key (the expression, for assumptions)
 
     def new(self, kind="f", finite=False) -> Sym:
         s = Sym(self, self.next_id, kind, finite)
@@ -239,7 +262,18 @@ class Tracer:
         s = self.new(kind)
         self.events.append(("op", s.id, name, ops, kind))
         self.memo[key] = s
+        self.skeys[s.id] = (name,) + tuple(self.skey(o) for o in ops)
         return s
+
+    def skey(self, op) -> tuple:
+        """The expression of an operand over sources and constants (equal in two traces for the
+        same computation): ids of this trace replaced by their expressions."""
+        if op[0] == "c":
+            return op
+        _, owner, id_ = op
+        if owner is self:
+            return self.skeys.get(id_, ("?", id_))
+        return ("src", owner.name, id_) if isinstance(owner, Source) else ("x", id(owner), id_)
 
     def load(self, space: str, index, kind="f", finite=False) -> Sym:
         """The value ``space[index]`` (``S``, ``x``, ``a``, ``in``, ...) as read now."""
@@ -272,10 +306,13 @@ class Tracer:
         key = operand(cond)
         if key in self.decided:
             return self.decided[key]
+        skey = self.skey(key)
+        if skey in self.assumed:
+            return self.assumed[skey]
         k = len(self.choices)
         index = self.forced[k] if k < len(self.forced) else 0
         self.choices.append((index, len(options)))
-        self.path.append((len(self.events), key, options, index))
+        self.path.append((len(self.events), key, options, index, skey))
         self.decided[key] = options[index]
         return options[index]
 
@@ -330,10 +367,10 @@ def _run(tracer: Tracer, fn, forced):
 
 def _insert(root: Node, tracer: Tracer, result) -> None:
     node, start = root, 0
-    for at, key, options, index in tracer.path:
+    for at, key, options, index, skey in tracer.path:
         seg = tracer.events[start:at]
         if node.cond is None and not node.children:
-            node.events, node.cond, node.options = seg, key, options
+            node.events, node.cond, node.options, node.skey = seg, key, options, skey
         elif not _same(node.events, seg) or node.cond != key:
             raise TraceError(f"{tracer.name}: the traced function is not deterministic (a path "
                              f"replayed differently)")
