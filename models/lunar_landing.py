@@ -38,6 +38,7 @@ from descent_fmus.models.fmu_support import SlaveBase
 from descent_fmus.models.integrators import (DIVERGED, EVENT, LEFT_DOMAIN, REACHED, Integrator,
                                              advance_to)
 from descent_fmus.models.params import ParameterError, Params, param
+from descent_fmus.models.traceable import clip, where
 
 __all__ = ["LanderParams", "InfeasibleLandingError", "rhs", "constant_flow_state",
            "stopping_time", "switch_height", "optimal_landing", "OptimalLanding",
@@ -375,9 +376,10 @@ class LanderIntegrator(Integrator):
         span = t_end - self.t
         if span <= 0.0:
             return
-        u = min(max(u, 0.0), self.p.umax) if math.isfinite(u) else 0.0
-        if self.x[2] - u * span < self.m_dry:
-            u = 0.0
+        # clipped to [0, umax] (a non-finite flow: 0), cut where the mass would fall below
+        # m_dry in this step (models.traceable: one C conditional each in the native plant)
+        u = where(math.isfinite(u), lambda: clip(u, 0.0, self.p.umax), 0.0)
+        u = where(self.x[2] - u * span < self.m_dry, 0.0, u)
         hc = self.h_contact
         x, t, outcome = advance_to(rhs, self.x, self.t, t_end, self.dt, (u,) + self.args,
                                    event=lambda y: y[0] - hc, tol=1e-13)

@@ -90,6 +90,26 @@ CASES = {
         ],
         bad=[{"Ix": 1000.0}, {"mz_alpha": 0.0}, {"alpha0": 1.6}, {"dt": 0.0}, {"R": -1.0}],
         statuses={0, 1, 3}),
+    "LunarLander": dict(
+        flights=[
+            # coast, then full thrust: touchdown located inside a sub-step (tol 1e-13); after
+            # it the clock goes on and the state stays
+            ({}, lambda k, t, y: {"u": 14.57 if t > 4.2 else 0.0}, 1500, 0.01),
+            # flows out of bounds and non-finite (clipped, 0), another start and sub-step
+            ({"h0": 100.0, "V0": 3.0, "dt": 0.003},
+             _wild([{"u": v} for v in (NAN, 20.0, -1.0, 10.0, INF, 14.0)]), 1200, 0.01),
+            # the engine cut where the mass would fall below m_dry
+            ({"m0": 3000.0, "m_dry": 2995.0, "h0": 20.0}, _wild([{"u": 14.57}]), 300, 0.05),
+            # on the ground from the start: status 1 at t = 0
+            ({"h0": 0.0}, _wild([{"u": 5.0}]), 5, 0.01),
+            # coarse steps, full thrust: the lander climbs away
+            ({}, _wild([{"u": 14.57}]), 30, 1.0),
+            # diverges at once (h overflows)
+            ({"V0": 1e308, "dt": 10.0}, _wild([{"u": 0.0}]), 4, 1.0),
+        ],
+        bad=[{"m_dry": 0.0}, {"m_dry": 20000.0}, {"h_contact": 2.0}, {"h0": -1.0},
+             {"umax": 0.0}, {"dt": NAN}],
+        statuses={0, 1, 3}),
 }
 
 

@@ -55,6 +55,7 @@ PLANTS = {
     "Reentry": PlantSpec("reentry:Reentry", "reentry"),
     "MarsCapsule": PlantSpec("mars:MarsCapsule", "mars"),
     "MarsCapsule6DOF": PlantSpec("mars_6dof:MarsCapsule6DOF", "mars6dof"),
+    "LunarLander": PlantSpec("lunar_landing:LunarLander", "lander"),
 }
 
 
