@@ -39,6 +39,7 @@ from descent_fmus.models.fmu_support import SlaveBase
 from descent_fmus.models.integrators import (CRASHED, DIVERGED, EVENT, LEFT_DOMAIN, REACHED,
                                              Integrator, advance_to)
 from descent_fmus.models.params import ParameterError, Params, param
+from descent_fmus.models.traceable import first_smallest, maximum, minimum
 
 __all__ = ["DescentParams", "rhs", "box_distance", "controller_inputs", "DescentIntegrator",
            "simulate", "LunarDescent", "U1_BOUNDS", "U2_BOUNDS", "T_PLUS", "G_TILDE",
@@ -152,7 +153,7 @@ def box_distance(x, p: DescentParams) -> float:
     event function well scaled; the box itself is exact.
     """
     V, h = x[0], x[2]
-    return max(V - p.V_hi, p.V_lo - V, (h - p.h_hi) / 50.0, (p.h_lo - h) / 50.0)
+    return maximum(V - p.V_hi, p.V_lo - V, (h - p.h_hi) / 50.0, (p.h_lo - h) / 50.0)
 
 
 #: Scales of the controller inputs ([choice], models/README.md).
@@ -202,12 +203,12 @@ class DescentIntegrator(Integrator):
 
     def _events(self, x):
         """(status, value) pairs; the flight ends with that status where the value reaches 0."""
-        return ((CRASHED, x[2]), (LEFT_DOMAIN, min(x[0] - V_STALL, x[4])),
+        return ((CRASHED, x[2]), (LEFT_DOMAIN, minimum(x[0] - V_STALL, x[4])),
                 (REACHED, box_distance(x, self.p)))
 
     def _event(self, x) -> float:
         # the earliest of the three events: min of continuous functions, zero where one is
-        return min(x[2], x[0] - V_STALL, x[4], box_distance(x, self.p))
+        return minimum(x[2], x[0] - V_STALL, x[4], box_distance(x, self.p))
 
     def _sample(self, x, k1) -> None:
         if x[2] < self.h_min:
@@ -224,7 +225,7 @@ class DescentIntegrator(Integrator):
         self._sample(x, None)
         if outcome == EVENT:
             # which event: the one whose function is (to the location tolerance) zero
-            self.end(min(self._events(x), key=lambda e: e[1])[0], t)
+            self.end(first_smallest(self._events(x))[0], t)
         elif outcome == DIVERGED:
             self.end(LEFT_DOMAIN, t)
 

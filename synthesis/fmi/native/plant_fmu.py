@@ -56,6 +56,7 @@ PLANTS = {
     "MarsCapsule": PlantSpec("mars:MarsCapsule", "mars"),
     "MarsCapsule6DOF": PlantSpec("mars_6dof:MarsCapsule6DOF", "mars6dof"),
     "LunarLander": PlantSpec("lunar_landing:LunarLander", "lander"),
+    "LunarDescent": PlantSpec("lunar_descent:LunarDescent", "descent"),
 }
 
 
