@@ -10,7 +10,8 @@
 
 Then a worker's resident size over a long run: ``--long`` flights (default 100 000) through the
 evaluator's native path, the RSS printed at the start (after a warm-up), every tenth and at the
-end.  Targets: path 3 >= 50x path 1 and within 2x of path 4; the RSS flat.
+end.  The paths are measured in interleaved rounds (the median of each): a machine whose load
+changes slows them alike.  Targets: path 3 >= 50x path 1 and within 2x of path 4; the RSS flat.
 
     python benchmarks/native_paths.py [--fmus DIR] [--long N] [--json]
 
@@ -22,6 +23,7 @@ import argparse
 import json
 import os
 import platform
+import statistics
 import subprocess
 import tempfile
 import time
@@ -71,63 +73,86 @@ def s1_laws(n: int = 16) -> list:
     return out
 
 
-def rate_master(problem, plant, ctrl, laws, seconds: float) -> tuple[float, dict]:
-    """Flights per second of the Python master on these FMUs (and the last flight's final)."""
-    state = problem.initial_states[0]
-    with ClosedLoop(problem.wiring, plant, ctrl) as loop:
-        final = loop.run(state, laws[0].start_values()).final
+class Master:
+    """The Python master on two FMUs, loaded once; ``rate(seconds)`` flies laws in turn."""
+
+    def __init__(self, problem, plant, ctrl, laws):
+        self.state, self.laws = problem.initial_states[0], laws
+        self.loop = ClosedLoop(problem.wiring, plant, ctrl)
+        self.final = self.loop.run(self.state, laws[0].start_values()).final
+
+    def rate(self, seconds: float) -> float:
         n, t0 = 0, time.perf_counter()
         while time.perf_counter() - t0 < seconds:
-            loop.run(state, laws[n % len(laws)].start_values())
+            self.loop.run(self.state, self.laws[n % len(self.laws)].start_values())
             n += 1
-        return n / (time.perf_counter() - t0), final
+        return n / (time.perf_counter() - t0)
 
 
-def rate_evaluator(problem, plant, ctrl, laws, seconds: float) -> tuple[float, str, tuple]:
-    """Flights per second of ``LawFlyer.fly`` (the evaluator's per-process flyer)."""
-    flyer = LawFlyer(problem, str(plant), str(ctrl))
-    try:
-        out, _ = flyer.fly(laws[0])
+class Evaluator:
+    """``LawFlyer.fly`` (the evaluator's per-process flyer) on the problem's FMUs."""
+
+    def __init__(self, problem, plant, ctrl, laws):
+        self.laws = laws
+        self.flyer = LawFlyer(problem, str(plant), str(ctrl))
+        self.path = self.flyer.loop.path
+        self.f = self.flyer.fly(laws[0])[0].f
+
+    def rate(self, seconds: float) -> float:
         n, t0 = 0, time.perf_counter()
         while time.perf_counter() - t0 < seconds:
-            flyer.fly(laws[n % len(laws)])
+            self.flyer.fly(self.laws[n % len(self.laws)])
             n += 1
-        return n / (time.perf_counter() - t0), flyer.loop.path, out.f
-    finally:
-        flyer.close()
+        return n / (time.perf_counter() - t0)
 
 
-def rate_c(problem, plant_twin, ctrl_twin, law, flights: int, work: Path) -> tuple:
-    """Flights per second of the C master on the two native FMUs (and its final L, load_max)."""
-    exe = work / "c_master"
-    subprocess.run([find_compiler(), "-std=c99", "-O2", "-o", str(exe), str(HERE / "c_master.c"),
-                    "-ldl"], check=True)
-    libs, lines = [], []
-    for tag, path, values in (("p", plant_twin, problem.initial_states[0]),
-                              ("c", ctrl_twin, law.start_values())):
-        md = read_model_description(str(path))
-        d = Path(extract(str(path), unzipdir=str(work / path.stem)))
-        libs += [str(d / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"),
-                 md.guid]
-        var = {v.name: v for v in md.modelVariables}
-        for name, value in values.items():
-            v = var[name]
-            text = float.hex(float(value)) if v.type == "Real" else str(int(value))
-            lines.append(f"{tag} {'R' if v.type == 'Real' else 'I'} {v.valueReference} {text}")
-        if tag == "p":
-            pv = var
-        else:
-            cv = var
-    w = problem.wiring
-    lines += [f"y {pv[a].valueReference} {cv[b].valueReference}" for a, b in w.to_controller]
-    lines += [f"u {cv[a].valueReference} {pv[b].valueReference}" for a, b in w.to_plant]
-    lines += [f"o {pv[n].valueReference}" for n in ("L", "load_max")]
-    lines += [f"h {float.hex(w.step)}", f"t {float.hex(w.stop_time)}"]
-    (work / "spec.txt").write_text("\n".join(lines) + "\n")
-    res = subprocess.run([str(exe), *libs, str(work / "spec.txt"), str(flights)],
-                         capture_output=True, text=True, check=True)
-    per_flight = float(res.stderr.split("seconds_per_flight")[1])
-    return 1.0 / per_flight, [float.fromhex(v) for v in res.stdout.split()]
+class CMaster:
+    """The C master (``benchmarks/c_master.c``) on the two native FMUs, the first law."""
+
+    def __init__(self, problem, plant_twin, ctrl_twin, law, work: Path):
+        self.exe = work / "c_master"
+        subprocess.run([find_compiler(), "-std=c99", "-O2", "-o", str(self.exe),
+                        str(HERE / "c_master.c"), "-ldl"], check=True)
+        self.libs, lines, var = [], [], {}
+        for tag, path, values in (("p", plant_twin, problem.initial_states[0]),
+                                  ("c", ctrl_twin, law.start_values())):
+            md = read_model_description(str(path))
+            d = Path(extract(str(path), unzipdir=str(work / path.stem)))
+            self.libs += [str(d / "binaries" / "linux64" /
+                              f"{md.coSimulation.modelIdentifier}.so"), md.guid]
+            var[tag] = {v.name: v for v in md.modelVariables}
+            for name, value in values.items():
+                v = var[tag][name]
+                text = float.hex(float(value)) if v.type == "Real" else str(int(value))
+                lines.append(f"{tag} {'R' if v.type == 'Real' else 'I'} {v.valueReference} "
+                             f"{text}")
+        w, pv, cv = problem.wiring, var["p"], var["c"]
+        lines += [f"y {pv[a].valueReference} {cv[b].valueReference}" for a, b in w.to_controller]
+        lines += [f"u {cv[a].valueReference} {pv[b].valueReference}" for a, b in w.to_plant]
+        lines += [f"o {pv[n].valueReference}" for n in ("L", "load_max")]
+        lines += [f"h {float.hex(w.step)}", f"t {float.hex(w.stop_time)}"]
+        self.spec = work / "spec.txt"
+        self.spec.write_text("\n".join(lines) + "\n")
+        self.per_flight, self.final = 1e-3, None
+        self.rate(0.05)
+
+    def rate(self, seconds: float) -> float:
+        flights = max(20, int(seconds / self.per_flight))
+        res = subprocess.run([str(self.exe), *self.libs, str(self.spec), str(flights)],
+                             capture_output=True, text=True, check=True)
+        self.per_flight = float(res.stderr.split("seconds_per_flight")[1])
+        self.final = [float.fromhex(v) for v in res.stdout.split()]
+        return 1.0 / self.per_flight
+
+
+def rates(paths: dict, seconds: float, rounds: int) -> dict:
+    """Median flights/s of every path over ``rounds`` rounds, the paths interleaved in each
+    round (a machine whose load changes slows them alike)."""
+    got = {name: [] for name in paths}
+    for _ in range(rounds):
+        for name, path in paths.items():
+            got[name].append(path.rate(seconds / rounds))
+    return {name: statistics.median(v) for name, v in got.items()}
 
 
 def long_run(problem, plant, ctrl, laws, flights: int) -> list:
@@ -152,6 +177,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fmus", type=Path, default=fmu_dir())
     ap.add_argument("--seconds", type=float, default=8.0, help="time per path [s]")
+    ap.add_argument("--rounds", type=int, default=8, help="rounds the paths take in turn")
     ap.add_argument("--long", type=int, default=100_000, help="flights of the RSS run")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
@@ -162,30 +188,36 @@ def main(argv=None):
     if missing:
         raise SystemExit(f"native FMUs missing: {', '.join(missing)} (python build_fmus.py)")
     laws = s1_laws()
-    rates = {}
-    rates["pythonfmu, Python master"], want = rate_master(problem, plant, ctrl, laws,
-                                                          args.seconds)
-    rates["native, Python master"], got = rate_master(problem, *twins, laws, args.seconds)
-    assert got == want, "the native twins fly differently"
-    rates["native, C container (evaluator)"], path, f = rate_evaluator(
-        problem, plant, ctrl, laws, args.seconds)
     with tempfile.TemporaryDirectory(prefix="native_paths_") as tmp:
-        n_c = max(100, int(rates["native, C container (evaluator)"] * args.seconds))
-        rates["native, pure C master"], c_final = rate_c(problem, *twins, laws[0], n_c, Path(tmp))
-    assert c_final == [want["L"], want["load_max"]], "the C master flies differently"
+        paths = {"pythonfmu, Python master": Master(problem, plant, ctrl, laws),
+                 "native, Python master": Master(problem, *twins, laws),
+                 "native, C container (evaluator)": Evaluator(problem, plant, ctrl, laws),
+                 "native, pure C master": CMaster(problem, *twins, laws[0], Path(tmp))}
+        want = paths["pythonfmu, Python master"].final
+        assert paths["native, Python master"].final == want, "the twins fly differently"
+        assert paths["native, pure C master"].final == [want["L"], want["load_max"]], \
+            "the C master flies differently"
+        measured = rates(paths, args.seconds * len(paths), args.rounds)
+        ev = paths["native, C container (evaluator)"]
+        path, f = ev.path, ev.f
+        ev.flyer.close()
+        for name in ("pythonfmu, Python master", "native, Python master"):
+            paths[name].loop.close()
     rss = long_run(problem, plant, ctrl, laws, args.long)
-    ev, py = rates["native, C container (evaluator)"], rates["pythonfmu, Python master"]
-    report = {"machine": machine(), "evaluator_path": path, "flights_per_s": rates,
-              "ratios": {"evaluator / pythonfmu (target >= 50)": ev / py,
-                         "pure C / evaluator (target <= 2)": rates["native, pure C master"] / ev,
-                         "native master / pythonfmu": rates["native, Python master"] / py},
+    rates_ = measured
+    e, py = rates_["native, C container (evaluator)"], rates_["pythonfmu, Python master"]
+    report = {"machine": machine(), "evaluator_path": path, "flights_per_s": rates_,
+              "ratios": {"evaluator / pythonfmu (target >= 50)": e / py,
+                         "pure C / evaluator (target <= 2)": rates_["native, pure C master"] / e,
+                         "native master / pythonfmu": rates_["native, Python master"] / py},
               "rss_mb": rss, "objectives_basic_law": f}
     if args.json:
         print(json.dumps(report, indent=1))
         return
-    print(f"S1 reentry, nominal flight, 16 distinct laws; {report['machine']}")
+    print(f"S1 reentry, nominal flight, 16 distinct laws, median of {args.rounds} interleaved "
+          f"rounds; {report['machine']}")
     print(f"{'path':36s} {'flights/s':>10s} {'ms/flight':>10s}")
-    for name, r in rates.items():
+    for name, r in rates_.items():
         print(f"{name:36s} {r:10.1f} {1e3 / r:10.3f}")
     for name, r in report["ratios"].items():
         print(f"  {name}: {r:.1f}x")
