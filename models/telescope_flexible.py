@@ -40,6 +40,7 @@ from pythonfmu import Fmi2Causality
 from descent_fmus.models.params import ParameterError, Params, description_of, param
 from descent_fmus.models.telescope import (Telescope, TelescopeParams, gyro_momentum, gyro_sums,
                                            quat_to_matrix, quaternion_rate)
+from descent_fmus.models.traceable import minimum
 
 __all__ = ["PanelParams", "make_flexible_rhs", "flexible_inertial_momentum", "FlexibleTelescope",
            "N_MODES", "flexible_initial_state"]
@@ -73,7 +74,7 @@ class PanelParams(Params):
                 or len(self.zeta) != N_MODES:
             raise ParameterError(f"panel data need 12 couplings, {N_MODES} frequencies and "
                                  f"{N_MODES} damping ratios")
-        if min(self.freq) <= 0.0 or min(self.zeta) < 0.0:
+        if minimum(*self.freq) <= 0.0 or minimum(*self.zeta) < 0.0:
             raise ParameterError("modal frequencies must be > 0 [Hz] and damping ratios >= 0")
 
     def validate(self, body: TelescopeParams | None = None) -> "PanelParams":

@@ -320,5 +320,17 @@ def _render_propagate(ev, scope, ind, used) -> list:
                             [(n, f"{c}_out", "int")])
 
 
+def _render_linalg(ev, scope, ind, used) -> list:
+    _, _, spec, outs = ev
+    c, lines = scope.fresh("c"), []
+    arr = _arrays(spec, ["args"], c, scope, ind, lines)
+    lines += [f"{ind}double {c}_out[{len(outs)}];",
+              f"{ind}if ({spec['fn']}({arr['args']}, {c}_out))",
+              f"{ind}    err = 1;                    /* numpy.linalg.LinAlgError */"]
+    return lines + [f"{ind}const double v{o} = {c}_out[{k}];" for k, o in enumerate(outs)
+                    if (id(scope.tracer), o) in used]
+
+
 #: how the calls recorded by the stand-ins are written (Scope.call_renderers)
-CALL_RENDERERS = {"advance_to": _render_advance_to, "propagate": _render_propagate}
+CALL_RENDERERS = {"advance_to": _render_advance_to, "propagate": _render_propagate,
+                  "linalg": _render_linalg}

@@ -194,6 +194,10 @@ def message_lines(message: str, holes: list, scope: Scope, ind: str) -> list:
             fmt.append(part.replace("%", "%%"))
             continue
         op, spec = holes[int(part)]
+        if op[0] == "s" and isinstance(op[1], Source) and op[1].kind == "i":
+            fmt.append("%d")                        # an Integer variable: str(int)
+            args.append(f"(int){scope.value(op)}")
+            continue
         buf = scope.fresh("text")
         lines.append(f"{ind}char {buf}[40];")
         lines.append(f"{ind}pc_format({buf}, sizeof {buf}, {scope.value(op)}, "
@@ -212,7 +216,9 @@ def _node(node: Node, scope: Scope, used: set, leaf, ind: str) -> list:
         out.append(f"{ind}if (err)")
         out.append(f"{ind}    return PC_ERROR;")
         result = node.result
-        if result[0] == "error":
+        if result[0] == "dispatch":
+            out += leaf(result, scope, ind)
+        elif result[0] == "error":
             out.append(f"{ind}return PC_ERROR;")
         elif result[0] == "raise":
             out += message_lines(result[1], result[2], scope, ind)

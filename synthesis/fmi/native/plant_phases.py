@@ -29,13 +29,16 @@ from descent_fmus.synthesis.fmi.native.plant_calls import (CALL_RENDERERS, SlotL
                                                            Unit, proxy_class, traced_advance_to,
                                                            traced_propagate, using_unit)
 from descent_fmus.synthesis.fmi.native.plant_codegen import Scope, render_function
+from descent_fmus.synthesis.fmi.native.plant_numpy import TRACED_NUMPY
 from descent_fmus.synthesis.fmi.native.plant_shims import patched
 from descent_fmus.synthesis.fmi.native.plant_trace import (Source, Sym, TraceError, Tracer,
                                                            check_python, explore, operand)
 
 __all__ = ["Interface", "trace_plant", "PlantCode", "interface_of"]
 
-_INTERCEPTORS = {"advance_to": traced_advance_to, "propagate_linear_input": traced_propagate}
+#: names swapped into the model modules besides math/float/sum (plant_shims.patched)
+_INTERCEPTORS = {"advance_to": traced_advance_to, "propagate_linear_input": traced_propagate,
+                 "np": TRACED_NUMPY}
 
 
 @dataclass
@@ -102,33 +105,35 @@ def _slot_shape(v):
     return False
 
 
-def _syms(obj, owner, found: dict, seen: set) -> None:
-    """Traced values of ``owner`` reachable from ``obj`` (objects, containers, closures)."""
+def _syms(obj, owner, found: list, seen: set, pos=()) -> None:
+    """``(position, value)`` of the traced values of ``owner`` reachable from ``obj`` (objects,
+    containers, closures), in a fixed order; a position names the way there."""
     if isinstance(obj, Sym):
         if obj.owner is owner:
-            found.setdefault(obj.id, obj)
+            found.append((pos, obj))
         return
     if isinstance(obj, (str, bytes, int, float, type(None), type, types.ModuleType)) \
             or id(obj) in seen:
         return
     seen.add(id(obj))
-    if isinstance(obj, (tuple, list, set, frozenset)):
-        items = obj
+    if isinstance(obj, (tuple, list)):
+        items = enumerate(obj)
     elif isinstance(obj, dict):
-        items = obj.values()
+        items = obj.items()
     elif isinstance(obj, np.ndarray):
-        items = obj.flat if obj.dtype == object else ()
+        items = enumerate(obj.flat if obj.dtype == object else ())
     elif isinstance(obj, types.FunctionType):
-        items = [c.cell_contents for c in (obj.__closure__ or ()) if _cell_full(c)]
-        items += list(obj.__defaults__ or ())
+        items = [(f"cell{k}", c.cell_contents) for k, c in enumerate(obj.__closure__ or ())
+                 if _cell_full(c)]
+        items += [(f"default{k}", v) for k, v in enumerate(obj.__defaults__ or ())]
     elif isinstance(obj, types.MethodType):
-        items = (obj.__self__, obj.__func__)
+        items = (("self", obj.__self__), ("func", obj.__func__))
     elif hasattr(obj, "__dict__"):
-        items = vars(obj).values()
+        items = vars(obj).items()
     else:
         items = ()
-    for item in items:
-        _syms(item, owner, found, seen)
+    for key, item in items:
+        _syms(item, owner, found, seen, pos + (key,))
 
 
 def _cell_full(cell) -> bool:
@@ -149,7 +154,7 @@ class PlantCode:
         self.unit = Unit(prefix)
         self.inst = cls(instance_name="native-trace")
         self.iface = interface_of(self.inst)
-        self.R, self.I, self.TH = Source("r"), Source("iv"), Source("th")
+        self.R, self.I, self.TH = Source("r"), Source("iv", "i"), Source("th")
         self.layout = SlotLayout()
         self.call_shapes = None
         self.integrator = None
@@ -228,24 +233,31 @@ class PlantCode:
                               self._scope(tracer, {}, False), _writes_leaf("S"))
 
     def _layout(self, tracer, results) -> None:
-        """Slots from the integrators the start paths built (see :class:`SlotLayout`)."""
+        """Slots from the integrators the start paths built (see :class:`SlotLayout`): their
+        numeric attributes, then every other value computed at the start that they keep, by its
+        position (the paths build the same objects, their values may differ in identity)."""
         self.integrator, self.instance_state, self.attr = results[0]
-        hidden = None
+        self._hidden = {}
+        layout = None
         for ig, changed, _ in results:
             for name, v in vars(ig).items():
                 shape = _slot_shape(v)
                 if shape is not False:
                     self.layout.add_attr(name, shape)
-            found: dict = {}
+            found: list = []
             seen: set = set()
-            _syms([v for k, v in vars(ig).items() if k not in self.layout.attrs], tracer,
-                  found, seen)
-            _syms(list(changed.values()), tracer, found, seen)
-            if hidden is not None and set(found) != set(hidden):
-                raise TraceError(f"{self.prefix}: the start paths keep different values")
-            hidden = found
-        for sym in sorted(hidden.values(), key=lambda s: s.id):
+            _syms({k: v for k, v in vars(ig).items() if k not in self.layout.attrs}, tracer,
+                  found, seen, ("integrator",))
+            _syms(changed, tracer, found, seen, ("fmu",))
+            if layout is not None and [p for p, _ in found] != layout:
+                raise TraceError(f"{self.prefix}: the start paths keep different objects")
+            layout = [p for p, _ in found]
+            self._hidden[id(ig)] = found
+        for pos, sym in self._hidden[id(self.integrator)]:
             self.layout.add_hidden(sym)
+        # each position's slot: that of the template's value there
+        self._slot_of = [self.layout.hidden[(sym.owner, sym.id)]
+                         for _, sym in self._hidden[id(self.integrator)]]
 
     def _start_writes(self, tracer, ig, changed) -> list:
         writes = []
@@ -254,8 +266,11 @@ class PlantCode:
                 raise TraceError(f"{self.prefix}: a start path leaves {name} unset")
             v = getattr(ig, name)
             writes += [(start, v)] if n is None else [(start + j, e) for j, e in enumerate(v)]
-        for (owner, id_), k in self.layout.hidden.items():
-            writes.append((k, Sym(tracer, id_)))
+        written = set()
+        for k, (_, sym) in zip(self._slot_of, self._hidden[id(ig)]):
+            if k not in written:
+                writes.append((k, sym))
+                written.add(k)
         return writes
 
     def _proxy(self, tracer):
@@ -348,6 +363,48 @@ class PlantCode:
             self.trace_advance()
             self.trace_outputs()
         return self
+
+
+#: the phase functions' signatures (name -> (signature, arguments))
+PHASES = {"check": ("int @NAME@(const double *r, const int *iv, char *msg)", "r, iv, msg"),
+          "start": ("int @NAME@(const double *r, const int *iv, double *S, char *msg)",
+                    "r, iv, S, msg"),
+          "inputs": ("int @NAME@(const double *r, const int *iv, const double *th, "
+                     "double *call)", "r, iv, th, call"),
+          "advance": ("int @NAME@(const double *r, const int *iv, double *S, "
+                      "const double *call)", "r, iv, S, call"),
+          "outputs": ("int @NAME@(double *r, int *iv, const double *S)", "r, iv, S")}
+
+
+def dispatch_functions(cls, prefix: str, name: str, variants: dict) -> list:
+    """``(name, text)`` of the plant's phase functions that dispatch on the structural Integer
+    parameter ``name`` to the traced ``variants`` (value -> PlantCode).  The check is traced
+    with the parameter as an Integer: the class's own checks of it, then -- where Python needs
+    its value -- the variant's check."""
+    code = PlantCode(cls, prefix)
+    space, k = code.iface.index[name]
+
+    def switch(phase, ind):
+        lines = [f"{ind}switch (iv[{k}]) {{"]
+        lines += [f"{ind}case {v}:\n{ind}    return {c.prefix}_{phase}({PHASES[phase][1]});"
+                  for v, c in variants.items()]
+        return lines + [f"{ind}}}", f"{ind}return PC_ERROR;"]
+
+    out = []
+    with patched(_INTERCEPTORS), using_unit(code.unit):
+        code._bind(code.inst)
+        tracer = Tracer(f"{prefix} check")
+        tracer.hooks["dispatch"] = True
+        tree = explore(tracer, lambda: code.inst.check_parameters())
+        text = render_function(PHASES["check"][0].replace("@NAME@", f"{prefix}_check"), tree,
+                               code._scope(tracer, {}, False),
+                               lambda value, scope, ind: switch("check", ind), ("r", "iv", "msg"))
+        out.append((f"{prefix}_check", text))
+    for phase in ("start", "inputs", "advance", "outputs"):
+        head = PHASES[phase][0].replace("@NAME@", f"{prefix}_{phase}")
+        out.append((f"{prefix}_{phase}", "\n".join([head, "{"] + switch(phase, "    ") + ["}"])
+                    + "\n"))
+    return out
 
 
 def _writes_leaf(space: str):

@@ -18,6 +18,7 @@ from __future__ import annotations
 import builtins
 import math
 import sys
+import types
 from contextlib import contextmanager
 
 from descent_fmus.synthesis.fmi.native.plant_trace import (Sym, TraceError, active, evaluate,
@@ -142,21 +143,34 @@ def patched(interceptors: dict | None = None, extra_modules=()):
     the modules that have that name) into every loaded module of ``descent_fmus.models``."""
     names = {"math": TRACED_MATH, "float": _traced_float, "sum": _traced_sum}
     names.update(interceptors or {})
-    saved = []
+    saved, defaults = [], []
     for module in _model_modules() + list(extra_modules):
         d = module.__dict__
         for name, value in names.items():
             if name in ("float", "sum") or name in d:
                 saved.append((d, name, d.get(name, _MISSING)))
                 d[name] = value
+        # math functions bound as default arguments (``cos=math.cos``, a fast local name)
+        for fn in list(d.values()):
+            if isinstance(fn, types.FunctionType) and fn.__defaults__ and \
+                    any(_is_math(v) for v in fn.__defaults__):
+                defaults.append((fn, fn.__defaults__))
+                fn.__defaults__ = tuple(getattr(TRACED_MATH, v.__name__) if _is_math(v) else v
+                                        for v in fn.__defaults__)
     try:
         yield
     finally:
+        for fn, old in defaults:
+            fn.__defaults__ = old
         for d, name, old in reversed(saved):
             if old is _MISSING:
                 d.pop(name, None)
             else:
                 d[name] = old
+
+
+def _is_math(v) -> bool:
+    return isinstance(v, types.BuiltinFunctionType) and getattr(math, v.__name__, None) is v
 
 
 _MISSING = object()

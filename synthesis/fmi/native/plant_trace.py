@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 
 from descent_fmus.models.params import ParameterError
 
-__all__ = ["Sym", "Source", "Tracer", "Node", "TraceError", "explore", "active", "operand",
-           "is_sym", "evaluate", "MAX_PATHS"]
+__all__ = ["Sym", "Source", "Tracer", "Node", "TraceError", "StructuralValue", "explore",
+           "active", "operand", "is_sym", "evaluate", "MAX_PATHS"]
 
 #: Paths one traced function may have (a model with more should flatten a branch with
 #: ``models.traceable.where``).
@@ -54,6 +54,11 @@ def evaluate(name: str, args):
 
 class TraceError(RuntimeError):
     """Model code the tracer cannot follow (an unsupported operation, too many paths, ...)."""
+
+
+class StructuralValue(TraceError):
+    """A structural parameter's value is needed (as an integer) where the dispatching function
+    is traced: the path goes on in the variant traced for that value."""
 
 
 _STACK: list = []
@@ -114,25 +119,25 @@ class Sym:
     __hash__ = object.__hash__
 
     # -- arithmetic, in Python's order: a op b records (op, a, b) ------------------------------
-    def __add__(self, o): return active().op("add", self, o)
-    def __radd__(self, o): return active().op("add", o, self)
-    def __sub__(self, o): return active().op("sub", self, o)
-    def __rsub__(self, o): return active().op("sub", o, self)
-    def __mul__(self, o): return active().op("mul", self, o)
-    def __rmul__(self, o): return active().op("mul", o, self)
-    def __truediv__(self, o): return active().op("div", self, o)
-    def __rtruediv__(self, o): return active().op("div", o, self)
-    def __pow__(self, o): return active().op("pow", self, o)
-    def __rpow__(self, o): return active().op("pow", o, self)
+    def __add__(self, o): return _bin("add", self, o)
+    def __radd__(self, o): return _bin("add", o, self)
+    def __sub__(self, o): return _bin("sub", self, o)
+    def __rsub__(self, o): return _bin("sub", o, self)
+    def __mul__(self, o): return _bin("mul", self, o)
+    def __rmul__(self, o): return _bin("mul", o, self)
+    def __truediv__(self, o): return _bin("div", self, o)
+    def __rtruediv__(self, o): return _bin("div", o, self)
+    def __pow__(self, o): return _bin("pow", self, o)
+    def __rpow__(self, o): return _bin("pow", o, self)
     def __neg__(self): return active().op("neg", self)
     def __pos__(self): return self
     def __abs__(self): return active().op("fabs", self)
 
     # -- comparisons give truth values ----------------------------------------------------------
-    def __lt__(self, o): return active().op("lt", self, o, kind="b")
-    def __le__(self, o): return active().op("le", self, o, kind="b")
-    def __gt__(self, o): return active().op("gt", self, o, kind="b")
-    def __ge__(self, o): return active().op("ge", self, o, kind="b")
+    def __lt__(self, o): return _bin("lt", self, o, "b")
+    def __le__(self, o): return _bin("le", self, o, "b")
+    def __gt__(self, o): return _bin("gt", self, o, "b")
+    def __ge__(self, o): return _bin("ge", self, o, "b")
 
     def __eq__(self, o):
         if not isinstance(o, (Sym, float, int)):
@@ -154,6 +159,8 @@ class Sym:
         raise TraceError("float() of a traced value outside a traced module")
 
     def __int__(self):
+        if _STACK and _STACK[-1].hooks.get("dispatch"):
+            raise StructuralValue()
         raise TraceError("int() of a traced value: an integer that shapes the model must be a "
                          "structural parameter")
 
@@ -181,6 +188,13 @@ class Sym:
     # -- models.traceable.where: a conditional whose branches are traced lazily ------------------
     def __where__(self, if_true, if_false):
         return active().where(self, if_true, if_false)
+
+
+def _bin(name, a, b, kind="f"):
+    """``a <name> b`` recorded; an array operand is NumPy's to handle (element by element)."""
+    if type(a).__name__ == "ndarray" or type(b).__name__ == "ndarray":
+        return NotImplemented
+    return active().op(name, a, b, kind=kind)
 
 
 @dataclass
@@ -294,10 +308,14 @@ class Tracer:
         """A marker in the event list (e.g. an attribute written), not rendered."""
         self.events.append(("mark", what, detail))
 
-    def call(self, name: str, spec: dict, n_out: int, kinds=None) -> list:
-        """A call of the C runtime (``advance_to``, ...): ``n_out`` results."""
+    def call(self, name: str, spec: dict, n_out: int, kinds=None, key=None) -> list:
+        """A call of the C runtime (``advance_to``, ...): ``n_out`` results; ``key``: the
+        call's expression, if the results are a function of its arguments alone."""
         outs = [self.new((kinds or {}).get(k, "f")) for k in range(n_out)]
         self.events.append(("call", name, spec, [s.id for s in outs]))
+        if key is not None:
+            for k, s in enumerate(outs):
+                self.skeys[s.id] = ("call", key, k)
         return outs
 
     def decide(self, cond, options: tuple):
@@ -356,6 +374,8 @@ def _run(tracer: Tracer, fn, forced):
     _STACK.append(tracer)
     try:
         result = ("return", fn())
+    except StructuralValue:
+        result = ("dispatch",)
     except ParameterError as exc:
         result = ("raise", str(exc), list(tracer.holes))
     except (ArithmeticError, ValueError):

@@ -180,6 +180,145 @@ int pc_propagate_linear(pc_rhs f, const double *f_ctx, int n, double *x, double 
     return PC_OK;
 }
 
+/* -- numpy.linalg of 3x3 matrices --------------------------------------------------------- */
+
+/* LU with partial pivoting in place (LAPACK's getrf for n = 3): perm[i] is the original row of
+   row i, *sign the permutation's sign; 0 on a zero pivot (the factorization goes on, as getrf's
+   does) */
+static int lu3(double m[3][3], int perm[3], int *sign)
+{
+    int k, i, j, regular = 1;
+    *sign = 1;
+    for (i = 0; i < 3; i++)
+        perm[i] = i;
+    for (k = 0; k < 3; k++) {
+        int p = k;
+        for (i = k + 1; i < 3; i++)
+            if (fabs(m[i][k]) > fabs(m[p][k]))
+                p = i;
+        if (p != k) {
+            const int t = perm[k];
+            perm[k] = perm[p];
+            perm[p] = t;
+            for (j = 0; j < 3; j++) {
+                const double v = m[k][j];
+                m[k][j] = m[p][j];
+                m[p][j] = v;
+            }
+            *sign = -*sign;
+        }
+        if (m[k][k] == 0.0) {
+            regular = 0;
+            continue;
+        }
+        for (i = k + 1; i < 3; i++) {
+            m[i][k] /= m[k][k];
+            for (j = k + 1; j < 3; j++)
+                m[i][j] -= m[i][k] * m[k][j];
+        }
+    }
+    return regular;
+}
+
+static int finite9(const double *a)
+{
+    int k;
+    for (k = 0; k < 9; k++)
+        if (!isfinite(a[k]))
+            return 0;
+    return 1;
+}
+
+int pc_det3(const double *a, double *out)
+{
+    double m[3][3];
+    int perm[3], sign, k;
+    for (k = 0; k < 9; k++)
+        m[k / 3][k % 3] = a[k];
+    lu3(m, perm, &sign);
+    *out = m[0][0] * m[1][1] * m[2][2] * sign;      /* the diagonal's product, then the sign */
+    return !finite9(a);
+}
+
+int pc_inv3(const double *a, double *out)
+{
+    double m[3][3], x[3][3];
+    int perm[3], sign, k, i, j, c;
+    for (k = 0; k < 9; k++)
+        m[k / 3][k % 3] = a[k];
+    if (!lu3(m, perm, &sign) || !finite9(a))
+        return 1;                                   /* "Singular matrix" */
+    for (c = 0; c < 3; c++) {                       /* L U x = P e_c, column by column */
+        for (i = 0; i < 3; i++) {
+            double s = perm[i] == c ? 1.0 : 0.0;
+            for (j = 0; j < i; j++)
+                s -= m[i][j] * x[j][c];
+            x[i][c] = s;
+        }
+        for (i = 2; i >= 0; i--) {
+            double s = x[i][c];
+            for (j = i + 1; j < 3; j++)
+                s -= m[i][j] * x[j][c];
+            x[i][c] = s / m[i][i];
+        }
+    }
+    for (k = 0; k < 9; k++)
+        out[k] = x[k / 3][k % 3];
+    return 0;
+}
+
+int pc_eigvalsh3(const double *a, double *out)
+{
+    double m[3][3], w[3];
+    int i, j, sweep;
+    static const int P[3] = {0, 0, 1}, Q[3] = {1, 2, 2};
+    if (!finite9(a))
+        return 1;                                   /* "Eigenvalues did not converge" */
+    for (i = 0; i < 3; i++)
+        for (j = 0; j <= i; j++)
+            m[i][j] = m[j][i] = a[3 * i + j];       /* the lower triangle, as eigvalsh reads */
+    for (sweep = 0; sweep < 60; sweep++) {          /* cyclic Jacobi rotations */
+        int r, changed = 0;
+        for (r = 0; r < 3; r++) {
+            const int p = P[r], q = Q[r];
+            double theta, t, c, s;
+            int k;
+            if (m[p][q] == 0.0 || fabs(m[p][q]) <= 1e-300)
+                continue;
+            theta = (m[q][q] - m[p][p]) / (2.0 * m[p][q]);
+            t = (theta >= 0.0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1.0));
+            c = 1.0 / sqrt(t * t + 1.0);
+            s = t * c;
+            for (k = 0; k < 3; k++) {               /* rotate rows and columns p, q */
+                const double mkp = m[k][p], mkq = m[k][q];
+                m[k][p] = c * mkp - s * mkq;
+                m[k][q] = s * mkp + c * mkq;
+            }
+            for (k = 0; k < 3; k++) {
+                const double mpk = m[p][k], mqk = m[q][k];
+                m[p][k] = c * mpk - s * mqk;
+                m[q][k] = s * mpk + c * mqk;
+            }
+            m[p][q] = m[q][p] = 0.0;
+            changed = 1;
+        }
+        if (!changed)
+            break;
+    }
+    for (i = 0; i < 3; i++)
+        w[i] = m[i][i];
+    for (i = 0; i < 3; i++)                         /* ascending */
+        for (j = i + 1; j < 3; j++)
+            if (w[j] < w[i]) {
+                const double t = w[i];
+                w[i] = w[j];
+                w[j] = t;
+            }
+    for (i = 0; i < 3; i++)
+        out[i] = w[i];
+    return 0;
+}
+
 /* -- CPython's math.hypot ------------------------------------------------------------------
  * The norm of (x, y) as CPython 3.11 computes it (vector_norm in Modules/mathmodule.c), for two
  * coordinates: lossless scaling by a power of two, exact squares (Veltkamp-Dekker splitting),

@@ -68,6 +68,14 @@ int pc_advance_to(const pc_system *p, double *x, double t0, double t_end, double
 int pc_propagate_linear(pc_rhs f, const double *f_ctx, int n, double *x, double span,
                         const double *u0, const double *du, int m, double steps);
 
+/* numpy.linalg of a 3x3 matrix a (row-major): the inverse, the determinant, the eigenvalues of
+   the symmetric matrix whose lower triangle a holds (ascending).  Not NumPy's LAPACK/BLAS
+   arithmetic: the results may differ from NumPy's in the last bits.  Nonzero: NumPy raises
+   LinAlgError (a singular matrix, a non-finite one). */
+int pc_inv3(const double *a, double *out);
+int pc_det3(const double *a, double *out);
+int pc_eigvalsh3(const double *a, double *out);
+
 /* Python's math.hypot(x, y) */
 double py_hypot(double x, double y);
 
