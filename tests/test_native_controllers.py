@@ -141,8 +141,17 @@ BAD_PROGRAM = [{"n_nodes": 1}, {"n_nodes": 300}, {"grid": 2}, {"t_end": -1.0},
                {"table[2,3]": math.inf}]
 
 
+#: ... of the DragEstimator and the SensedNetworkOperatorController (the estimator's parameters:
+#: their check is traced from the Python dataclass)
+BAD_DRAG = [{"threshold": 0.0}, {"noise": -1.0}, {"bias": math.inf}, {"threshold": math.nan}]
+BAD_SENSED = [{"nx": 9}, {"psi[7,7]": 9}, {"noise": -0.5}, {"estimate_input": 9},
+              {"estimate_input": -1}, {"threshold": -1.0}]
+
+
 @pytest.mark.parametrize("name,cases", [("NetworkOperatorController", BAD_NO),
-                                        ("ProgramController", BAD_PROGRAM)])
+                                        ("ProgramController", BAD_PROGRAM),
+                                        ("DragEstimator", BAD_DRAG),
+                                        ("SensedNetworkOperatorController", BAD_SENSED)])
 def test_errors_are_named_as_the_python_controller_names_them(pair, name, cases):
     (py, py_log), (c, c_log) = pair(name)
     for case in cases:
@@ -199,6 +208,76 @@ def test_program_twin_equals_the_program_controller(pair):
                 t += float(h)
             runs.append(seq)
         assert runs[0] == runs[1], case
+
+
+@pytest.fixture(scope="module")
+def s1_trajectory(fmu_dir):
+    """A nominal S1 flight under the GA's basic solution: aero_load, x1..x4 and u at every
+    communication point (the estimator's inputs)."""
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.registry import get_problem
+    from descent_fmus.synthesis.systems.reentry.laws import synthesis_basic_law
+    p = get_problem("reentry")
+    with ClosedLoop(p.wiring, fmu_dir / "Reentry.fmu", fmu_dir / "NetworkOperatorController.fmu",
+                    record=("x1", "x2", "x3", "x4", "aero_load")) as loop:
+        r = loop.run(p.initial_states[0], synthesis_basic_law().start_values(), record=True)
+    return np.column_stack([r["aero_load"], r["x1"], r["x2"], r["x3"], r["x4"], r["ctrl.u[1]"]])
+
+
+#: Estimator settings: none, seeded accelerometer noise (the generator's draws), noise and bias,
+#: a high threshold, a bias alone, sampled every 2 s stepped at 1 s
+ESTIMATOR_CASES = [{}, {"noise": 0.05, "noise_seed": 3},
+                   {"noise": 0.2, "bias": 0.01, "noise_seed": -7}, {"threshold": 0.5},
+                   {"bias": -0.02}, {"sample_period": 2.0, "noise": 0.1, "noise_seed": 1}]
+
+
+def test_drag_estimator_twin_equals_the_pythonfmu_estimator(pair, s1_trajectory):
+    # the sensed drag and navigated state of a whole flight (every 50th drag sample off by
+    # 30 %, the state frozen after landing), 6 settings: drag_factor_log and drag_factor
+    # bitwise equal at every communication point
+    (py, _), (c, _) = pair("DragEstimator")
+    names = ["a_drag", "nav_x1", "nav_x2", "nav_x3", "nav_x4", "u"]
+    for case in ESTIMATOR_CASES:
+        runs = []
+        for fmu in (py, c):
+            vr = start(fmu, case)
+            seq = []
+            for i, row in enumerate(s1_trajectory):
+                row = [float(v) for v in row]
+                row[0] *= 1.3 if i % 50 == 7 else 1.0
+                fmu.setReal([vr[n] for n in names], row)
+                seq.append([bits(v) for v in fmu.getReal([vr["drag_factor_log"],
+                                                           vr["drag_factor"]])])
+                fmu.doStep(float(i), 1.0)
+            runs.append(seq)
+        assert runs[0] == runs[1], case
+        assert len({tuple(r) for r in runs[1]}) > 10, case      # the estimate moves
+
+
+def test_sensed_controller_twin_in_the_sensed_loop(fmu_dir, native, tmp_path):
+    # the problem reentry-sensed's loop (the law reads y3 at x[3]): the committed sensed law and
+    # the basic solution over 6 dispersed flights, with and without accelerometer noise, on
+    # the native loop (native plant if built, native sensed controller) and through the
+    # pythonfmu master: every final plant output bitwise equal
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
+    from descent_fmus.synthesis.registry import get_problem
+    from descent_fmus.synthesis.systems.reentry.guidance import default_law
+    from descent_fmus.synthesis.systems.reentry.laws import sensed_basic_law
+    problem = get_problem("reentry-sensed")
+    plant = fmu_dir / "native" / "Reentry.fmu"
+    plant = plant if plant.is_file() else fmu_dir / "Reentry.fmu"
+    states = problem.initial_states[:6]
+    laws = [dict(default_law().start_values()), sensed_basic_law(3).start_values(),
+            dict(default_law().start_values(), noise=0.1, noise_seed=5)]
+    with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu",
+                    fmu_dir / "SensedNetworkOperatorController.fmu") as master:
+        want = [[master.run(s, v).final for s in states] for v in laws]
+    with NativeContainerLoop(problem.wiring, plant,
+                             native["SensedNetworkOperatorController"]) as loop:
+        got = [[loop.run(s, v).final for s in states] for v in laws]
+    assert got == want
+    assert {f["status"] for row in want for f in row} == {1}
 
 
 @pytest.mark.parametrize("name", sorted(NATIVE_CONTROLLERS))

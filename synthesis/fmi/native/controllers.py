@@ -30,7 +30,9 @@ __all__ = ["slave_variables", "layout_config", "program_layout", "with_starts",
            "build_native_controllers"]
 
 #: Hand-written C files every twin of a network-operator controller ships.
-NO_FILES = ("no_interp.c", "no_interp.h")
+NO_FILES = ("no_controller.h", "no_interp.c", "no_interp.h")
+#: ... and every twin that carries S1's drag-factor estimator (its C generated, :mod:`.sensing`)
+SENSING_FILES = ("estimator.h", "py_random.h", "plant_runtime.c", "plant_runtime.h")
 
 
 def slave_variables(cls) -> tuple[list, str]:
@@ -152,9 +154,58 @@ def program_layout(variables, nodes: int, channels: int, grid: bool) -> str:
                                             "TABLE_GRID": int(grid)})
 
 
+def _sensing_config(prefix: str, names: dict, constants: dict | None = None):
+    """``model_config(variables)`` of a twin carrying the estimator: the value references the
+    C reads and the generated functions' names (``SENSING_*``)."""
+    def config(variables) -> str:
+        text = layout_config(variables, {
+            "VR_SAMPLE": "sample_period", "VR_NOISE": "noise", "VR_NAV": "nav_x1",
+            "VR_Y3": "drag_factor_log", "VR_FACTOR": "drag_factor", "IX_SEED": "noise_seed",
+            **names}, constants)
+        return (text + f'#include "{prefix}_sensing.h"\n'
+                f"#define SENSING_N_ST {prefix.upper()}_N_ST\n"
+                + "".join(f"#define SENSING_{f.upper()} {prefix}_{f}\n"
+                          for f in ("check", "nominal", "draw", "estimate", "commit")))
+    return config
+
+
+def build_drag_estimator(dest, compiler: str | None = None,
+                         defaults: dict | None = None) -> Path:
+    """The native ``DragEstimator`` (``c/drag_model.c``; the estimator's C generated from the
+    Python estimator, :mod:`.sensing`)."""
+    from descent_fmus.models.controllers.drag_estimator import DragEstimator
+    from descent_fmus.synthesis.fmi.native.sensing import sensing_sources
+    return _build_twin(DragEstimator, dest, "drag_model.c",
+                       _sensing_config("drag", {"VR_UIN": "u"}), SENSING_FILES,
+                       sensing_sources(DragEstimator, "drag"), compiler, defaults)
+
+
+def build_sensed_controller(dest, compiler: str | None = None,
+                            defaults: dict | None = None) -> Path:
+    """The native ``SensedNetworkOperatorController``: the generic controller's interpreter and
+    the estimator (``c/sensed_model.c``)."""
+    from descent_fmus.models.controllers.drag_estimator import SensedNetworkOperatorController
+    from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX, NU_MAX, NX_MAX
+    from descent_fmus.synthesis.fmi.native.sensing import sensing_sources
+    cls = SensedNetworkOperatorController
+    names = {"VR_X": "x[1]", "VR_U": "u[1]", "VR_Q": "q[1]", "VR_UMIN": "u_min[1]",
+             "VR_UMAX": "u_max[1]", "VR_XSCALE": "x_scale[1]", "VR_XOFFSET": "x_offset[1]",
+             "IX_NX": "nx", "IX_NQ": "nq", "IX_NU": "nu", "IX_OUT": "out[1]",
+             "IX_PSI": "psi[1,1]", "IX_ESTIMATE": "estimate_input"}
+    constants = {"NO_L_MAX": L_MAX, "NO_NX_MAX": NX_MAX, "NO_NQ_MAX": NQ_MAX,
+                 "NO_NU_MAX": NU_MAX}
+    generated = dict(sensing_sources(cls, "sensed"),
+                     **{"no_operations.h": interpreter_operations_h()})
+    return _build_twin(cls, dest, "sensed_model.c",
+                       _sensing_config("sensed", names, constants),
+                       NO_FILES + SENSING_FILES, generated, compiler, defaults)
+
+
 #: The native twins by model identifier.
 NATIVE_CONTROLLERS = {"NetworkOperatorController": build_network_operator_controller,
-                      "ProgramController": build_program_controller}
+                      "ProgramController": build_program_controller,
+                      "DragEstimator": build_drag_estimator,
+                      "SensedNetworkOperatorController": build_sensed_controller}
 
 
 def build_native_controllers(out_dir, names=None, compiler: str | None = None,
