@@ -106,26 +106,51 @@ def _expr(name: str, ops: list, scope: Scope) -> str:
     return f"{fn}({', '.join(a)})"
 
 
-def _used(node: Node, used: set) -> None:
-    """Ids of this tracer read anywhere in the tree (operands, stores, calls, decisions, leaves)."""
-    def walk(obj):
-        if isinstance(obj, Sym):
-            used.add((id(obj.owner), obj.id))
-        elif isinstance(obj, tuple) and len(obj) == 3 and obj[0] == "s":
-            used.add((id(obj[1]), obj[2]))
-        elif isinstance(obj, (list, tuple)):
-            for item in obj:
-                walk(item)
-        elif isinstance(obj, dict):
-            for item in obj.values():
-                walk(item)
-    for ev in node.events:
-        walk(ev[3] if ev[0] == "op" else ev[1:] if ev[0] != "load" else ())
-    walk(node.cond)
-    if node.result is not None:
-        walk(node.result)
+def _mark(obj, live: set) -> None:
+    """Every value ``obj`` reads (operands, traced values, inside containers) is live."""
+    if isinstance(obj, Sym):
+        live.add((id(obj.owner), obj.id))
+    elif isinstance(obj, tuple) and len(obj) == 3 and obj[0] == "s":
+        live.add((id(obj[1]), obj[2]))
+    elif isinstance(obj, (list, tuple)):
+        for item in obj:
+            _mark(item, live)
+    elif isinstance(obj, dict):
+        for item in obj.values():
+            _mark(item, live)
+
+
+def _live_events(events: list, live: set, me: int) -> None:
+    """Backwards over ``events``: an operation is computed if its value is read later (``live``)
+    or it may raise (Python would raise there); stores and calls always are."""
+    for ev in reversed(events):
+        kind = ev[0]
+        if kind == "op":
+            if ev[2] in MAY_RAISE or (me, ev[1]) in live:
+                _mark(ev[3], live)
+        elif kind in ("store", "call"):
+            _mark(ev[1:], live)
+        elif kind == "where":
+            _, outs, cond, a_events, a_vals, b_events, b_vals = ev
+            _mark(cond, live)
+            for k, i in enumerate(outs):
+                if (me, i) in live:
+                    _mark(a_vals[k], live)
+                    _mark(b_vals[k], live)
+            _live_events(a_events, live, me)
+            _live_events(b_events, live, me)
+
+
+def _live(node: Node, me: int) -> set:
+    """The values this node and the paths below it read (an id names one value per path)."""
+    live: set = set()
     for child in node.children.values():
-        _used(child, used)
+        live |= _live(child, me)
+    _mark(node.cond, live)
+    if node.result is not None:
+        _mark(node.result, live)
+    _live_events(node.events, live, me)
+    return live
 
 
 def _events(events: list, scope: Scope, used: set, ind: str) -> list:
@@ -161,27 +186,17 @@ def _events(events: list, scope: Scope, used: set, ind: str) -> list:
 
 def _where(ev, scope: Scope, used: set, ind: str) -> list:
     _, outs, cond, a_events, a_vals, b_events, b_vals = ev
-    out = [f"{ind}double {', '.join(f'v{i}' for i in outs)};",
-           f"{ind}if ({scope.value(cond)}) {{"]
+    me = id(scope.tracer)
+    live = [k for k, i in enumerate(outs) if (me, i) in used]
+    out = [f"{ind}double {', '.join(f'v{outs[k]}' for k in live)};"] if live else []
+    out.append(f"{ind}if ({scope.value(cond)}) {{")
     out += _events(a_events, scope, used, ind + "    ")
-    out += [f"{ind}    v{i} = {scope.value(v)};" for i, v in zip(outs, a_vals)]
+    out += [f"{ind}    v{outs[k]} = {scope.value(a_vals[k])};" for k in live]
     out.append(f"{ind}}} else {{")
     out += _events(b_events, scope, used, ind + "    ")
-    out += [f"{ind}    v{i} = {scope.value(v)};" for i, v in zip(outs, b_vals)]
+    out += [f"{ind}    v{outs[k]} = {scope.value(b_vals[k])};" for k in live]
     out.append(f"{ind}}}")
     return out
-
-
-def _where_used(events: list, used: set) -> None:
-    for ev in events:
-        if ev[0] == "where":
-            for sub in (ev[3], ev[5]):
-                _used(Node(events=sub), used)
-            for v in ev[4] + ev[6]:
-                if v[0] == "s":
-                    used.add((id(v[1]), v[2]))
-            _where_used(ev[3], used)
-            _where_used(ev[5], used)
 
 
 def message_lines(message: str, holes: list, scope: Scope, ind: str) -> list:
@@ -211,6 +226,7 @@ def message_lines(message: str, holes: list, scope: Scope, ind: str) -> list:
 
 
 def _node(node: Node, scope: Scope, used: set, leaf, ind: str) -> list:
+    used = _live(node, id(scope.tracer))
     out = _events(node.events, scope, used, ind)
     if node.cond is None:
         out.append(f"{ind}if (err)")
@@ -256,17 +272,7 @@ def render_function(signature: str, tree: Node, scope: Scope, leaf, params=()) -
     """The C function ``signature`` whose body is ``tree``; ``leaf(value, scope, indent)``
     gives the lines of a leaf that returns ``value`` (after ``err`` is checked); ``params``
     are the names of its parameters (cast to void in case a path reads none of them)."""
-    used: set = set()
-    _used(tree, used)
-    for node in _all_nodes(tree):
-        _where_used(node.events, used)
-    body = _node(tree, scope, used, leaf, "    ")
+    body = _node(tree, scope, set(), leaf, "    ")
     head = [f"{signature}", "{", "    int err = 0;"]
     head += [f"    (void){p};" for p in params]
     return "\n".join(head + body + ["}"]) + "\n"
-
-
-def _all_nodes(node: Node):
-    yield node
-    for child in node.children.values():
-        yield from _all_nodes(child)

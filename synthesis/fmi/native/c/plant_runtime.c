@@ -24,6 +24,8 @@ static int rk4_step_with_k1(const pc_system *p, const double *x, const double *k
     const double h2 = 0.5 * h;
     double h6;
     int j, err = 0;
+    if (n < 1 || n > PC_NMAX)
+        return 1;
     for (j = 0; j < n; j++)
         y[j] = x[j] + h2 * k1[j];
     err |= p->f(y, p->args, p->f_ctx, k2);
