@@ -444,3 +444,53 @@ def test_telescope_eigenvalue_checks(pair, name, case):
         said.append(log[0].split(": ", 1)[1])
     head = [s.split("eigenvalues")[0] if "eigenvalues" in s else s.split(":")[0] for s in said]
     assert head[0] == head[1] and len(head[0]) > 20, said
+
+
+def test_generated_header_is_a_c_library(pair, native_dir, tmp_path):
+    # the plant's generated C (sources/reentry_plant.{h,c} + plant_runtime.c) used as a library
+    # by a C program of its own, as docs/reference/native-plants.md shows: the same flight as
+    # the pythonfmu plant, bitwise
+    path = native_fmu("Reentry", native_dir)
+    with zipfile.ZipFile(path) as z:
+        z.extractall(tmp_path / "fmu")
+    src = tmp_path / "fmu" / "sources"
+    md = read_model_description(str(path))
+    reals = sorted((v for v in md.modelVariables if v.type == "Real"),
+                   key=lambda v: v.valueReference)
+    starts = ", ".join(float.hex(float(v.start)) if v.start is not None else "0.0"
+                       for v in reals)
+    (tmp_path / "main.c").write_text(f"""
+#include <stdio.h>
+#include "plant_runtime.h"
+#include "reentry_plant.h"
+int main(void)
+{{
+    double r[REENTRY_N_REAL] = {{{starts}}}, S[REENTRY_N_SLOTS], call[REENTRY_N_CALL], th[2];
+    int iv[REENTRY_N_INTEGER] = {{0}}, k;
+    char msg[PC_MSG];
+    if (reentry_check(r, iv, msg) != PC_OK || reentry_start(r, iv, S, msg) != PC_OK)
+        return 1;
+    reentry_outputs(r, iv, S);
+    for (k = 0; k < 300 && S[REENTRY_S_status] == 0.0; k++) {{
+        r[REENTRY_R_u] = 0.1;
+        th[0] = k;
+        th[1] = 1.0;
+        if (reentry_inputs(r, iv, th, call) || reentry_advance(r, iv, S, call)
+            || reentry_outputs(r, iv, S))
+            return 2;
+    }}
+    printf("%a %a %a %d\\n", r[REENTRY_R_L], r[REENTRY_R_load_max], r[REENTRY_R_t_end],
+           iv[REENTRY_I_status]);
+    return 0;
+}}
+""")
+    exe = tmp_path / "flight"
+    subprocess.run([find_compiler(), "-std=c99", "-O2", "-ffp-contract=off", "-I", str(src),
+                    str(tmp_path / "main.c"), str(src / "reentry_plant.c"),
+                    str(src / "plant_runtime.c"), "-o", str(exe), "-lm"], check=True)
+    got = subprocess.run([str(exe)], capture_output=True, text=True, check=True).stdout.split()
+    (py, _), _ = pair("Reentry")
+    want = fly(py, {}, lambda k, t, y: {"u": 0.1}, 300, 1.0)
+    end = next(row for row in want if row["status"])
+    assert [float.fromhex(v) for v in got[:3]] == [end["L"], end["load_max"], end["t_end"]]
+    assert int(got[3]) == end["status"] == 1

@@ -76,6 +76,10 @@ def _header(spec: PlantSpec, codes: list, functions: list) -> str:
              "functions return", " * PC_OK, PC_ERROR (Python raises ArithmeticError/ValueError"
              ") or PC_RAISE (ParameterError, in msg). */",
              f"#ifndef DESCENT_PLANT_{P}_H", f"#define DESCENT_PLANT_{P}_H", "",
+             f"#define {P}_N_REAL "
+             f"{sum(1 for sp, _ in codes[0].iface.index.values() if sp == 'r')}",
+             f"#define {P}_N_INTEGER "
+             f"{max(1, sum(1 for sp, _ in codes[0].iface.index.values() if sp == 'iv'))}",
              f"#define {P}_N_SLOTS {max(1, max(c.layout.size for c in codes))}",
              f"#define {P}_N_CALL {max(1, max(c.call_size for c in codes))}", ""]
     for c in codes:
@@ -117,11 +121,9 @@ def plant_sources(spec: PlantSpec) -> tuple[dict, object]:
          "#include <math.h>", "#include <stdio.h>", "", '#include "plant_runtime.h"',
          f'#include "{p}_plant.h"', ""]
     c += [text for _, text in functions]
-    index = codes[0].iface.index.values()
-    nr = sum(1 for s, _ in index if s == "r")
-    ni = sum(1 for s, _ in index if s == "iv")
     config = (f'/* the plant\'s functions and sizes for plant_model.c (generated) */\n'
-              f'#include "{p}_plant.h"\n#define N_REAL {nr}\n#define N_INTEGER {max(1, ni)}\n'
+              f'#include "{p}_plant.h"\n#define N_REAL {P}_N_REAL\n'
+              f"#define N_INTEGER {P}_N_INTEGER\n"
               f"#define PLANT_N_SLOTS {P}_N_SLOTS\n#define PLANT_N_CALL {P}_N_CALL\n"
               + "".join(f"#define PLANT_{ph.upper()} {p}_{ph}\n"
                         for ph in ("check", "start", "inputs", "advance", "outputs")))
