@@ -6,8 +6,13 @@
   a model's C files, compiled with the system's C compiler into an FMU that ships its sources;
 * :mod:`.law_fmu` -- a network-operator law as a native FMU (the variables of the pythonfmu
   ``NetworkOperatorController``);
-* :mod:`.table_fmu` -- program tables as native FMUs (one table player, ``c/table_model.c``).
+* :mod:`.table_fmu` -- program tables as native FMUs (one table player, ``c/table_model.c``);
+* :mod:`.controllers` -- the native twins of the generic controllers (the matrix interpreter
+  ``c/no_interp.c``, the table player, S1's estimator traced by :mod:`.sensing`) and
+  :mod:`.loops`, the closed loops of native FMUs; the ``plant_*`` modules generate the native
+  plants.
 
-Nothing here is imported by the GA's evaluator: the synthesis flies the generic pythonfmu
-controller; what a run *exports* is native (``synthesis.fmi.law_files``).
+Nothing here is imported by the GA's evaluator: it flies the generic controller FMU (the
+native twin where built, ``synthesis.fmi.native_loop``); what a run *exports* is native
+(``synthesis.fmi.law_files``).
 """
