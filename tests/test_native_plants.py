@@ -494,3 +494,76 @@ int main(void)
     end = next(row for row in want if row["status"])
     assert [float.fromhex(v) for v in got[:3]] == [end["L"], end["load_max"], end["t_end"]]
     assert int(got[3]) == end["status"] == 1
+
+
+def test_exported_reentry_functions_are_the_python_ones(native_dir, tmp_path):
+    # reentry_rhs, _altitude, _downrange, _deviations, _loads, _initial_state, _constants of the
+    # generated header (for C code of its own: a predictor) on random states and parameters:
+    # bitwise models/reentry.py's functions
+    from descent_fmus.models import reentry as m
+    path = native_fmu("Reentry", native_dir)
+    with zipfile.ZipFile(path) as z:
+        z.extractall(tmp_path / "fmu")
+    src = tmp_path / "fmu" / "sources"
+    (tmp_path / "main.c").write_text("""
+#include <stdio.h>
+#include <stdlib.h>
+#include "plant_runtime.h"
+#include "reentry_plant.h"
+static void put(int rc, const double *v, int n)
+{
+    int k;
+    printf(" %d", rc);
+    for (k = 0; k < n; k++)
+        printf(" %a", v[k]);
+}
+int main(void)
+{
+    double x[4], dx[4], u, p[11], out[4];
+    int k;
+    while (scanf("%la %la %la %la %la", x, x + 1, x + 2, x + 3, &u) == 5) {
+        for (k = 0; k < 11 && scanf("%la", p + k) == 1; k++)
+            ;
+        put(reentry_constants(p, out), out, 4);
+        put(reentry_rhs(x, u, out[0], out[1], out[2], out[3], dx), dx, 4);
+        put(reentry_loads(x, dx, out[1], p[REENTRY_P_lam], p[REENTRY_P_Rz], p[REENTRY_P_g0], u,
+                          out), out, 2);
+        put(reentry_altitude(x, p[REENTRY_P_Rz], out), out, 1);
+        put(reentry_downrange(x, p[REENTRY_P_Rz], out), out, 1);
+        put(reentry_deviations(x, p, out), out, 2);
+        put(reentry_initial_state(p, out), out, 4);
+        printf("\\n");
+    }
+    return 0;
+}
+""")
+    exe = tmp_path / "exports"
+    subprocess.run([find_compiler(), "-std=c99", "-O2", "-ffp-contract=off", "-I", str(src),
+                    str(tmp_path / "main.c"), str(src / "reentry_plant.c"),
+                    str(src / "plant_runtime.c"), "-o", str(exe), "-lm"], check=True)
+    rng = random.Random(5)
+    cases, lines = [], []
+    for k in range(400):
+        p = m.ReentryParams(m=rng.uniform(1e3, 1e4), V0=rng.uniform(5e3, 9e3),
+                            h0=rng.uniform(5e4, 1.5e5), beta0=rng.uniform(-0.1, 0.0),
+                            hf=rng.uniform(0.0, 2e4), lam=rng.uniform(1e-4, 2e-4))
+        x = (rng.uniform(0, 2e6), rng.uniform(-8e3, 8e3), p.Rz + rng.uniform(0, 1.5e5),
+             rng.uniform(-2e3, 1e3))
+        if k % 50 == 0:
+            x = (0.0, 0.0, p.Rz + p.hf, 0.0)                 # the branches of deviations()
+        u = rng.uniform(-0.2, 0.2)
+        cases.append((x, u, p))
+        values = list(x) + [u] + [getattr(p, f) for f in m.ReentryParams.__dataclass_fields__]
+        lines.append(" ".join(float.hex(float(v)) for v in values))
+    res = subprocess.run([str(exe)], input="\n".join(lines) + "\n", capture_output=True,
+                         text=True, check=True).stdout.splitlines()
+    assert len(res) == len(cases)
+    for (x, u, p), line in zip(cases, res):
+        c = p.constants()
+        dx = m.rhs(x, u, *c)
+        want = [0, *c, 0, *dx, 0, *m.loads(x, dx, c[1], p.lam, p.Rz, p.g0, u),
+                0, m.altitude(x, p.Rz), 0, m.downrange(x, p.Rz), 0, *m.deviations(x, p),
+                0, *m.initial_state(p)]
+        got = line.split()
+        assert [int(v) if k in (0, 5, 10, 13, 15, 17, 20) else float.fromhex(v)
+                for k, v in enumerate(got)] == want, (x, u, p)

@@ -170,7 +170,8 @@ def _events(events: list, scope: Scope, used: set, ind: str) -> list:
             _, id_, space, index, k = ev
             if (me, id_) in used:
                 ctype = "int" if k == "b" else "double"
-                out.append(f"{ind}const {ctype} v{id_} = {scope.spaces[space]}[{index}];")
+                at = "" if index is None else f"[{index}]"         # None: a scalar argument
+                out.append(f"{ind}const {ctype} v{id_} = {scope.spaces[space]}{at};")
         elif kind == "store":
             _, space, index, op = ev
             cast = scope.casts.get(space, "")
