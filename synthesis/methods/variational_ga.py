@@ -120,6 +120,14 @@ class VariationalGA(Method):
         CMA-ES refinement of the parameters (default: off; a problem's recipe has it on).
     generations : int, optional
         Generations after which :meth:`finished` (default: never).
+
+    Attributes
+    ----------
+    rescale : callable or None
+        A hook the run may set: ``rescale(law) -> law or None``, called once with the basic
+        solution when its refinement ends; a law returned (the same function in other input
+        coordinates, e.g. where the refined law acts) becomes the template every candidate is
+        decoded with, and the population is flown again in those coordinates.
     """
 
     def __init__(self, params: GrayCodec, q0, rng: np.random.Generator, config: GAConfig,
@@ -148,6 +156,9 @@ class VariationalGA(Method):
         self.history = []             # per generation: (generation, evaluations, n_front, best)
         self._lchr = config.lchr if structure is not None else 0
         self._pending = ("init", self._initial_members())
+        self.rescale = None
+        self._basis_refining = False
+        self._template = None          # the decoding law after a rescale (its dict)
 
     def _initial_members(self) -> list:
         params, rng, structure, lchr = self.params, self.rng, self.structure, self._lchr
@@ -217,7 +228,7 @@ class VariationalGA(Method):
         for m, f, c in zip(members, F, cv):
             m.f, m.cv = f, float(c)
         self._pending = None
-        if phase in ("init", "epoch"):
+        if phase in ("init", "epoch", "rescale"):
             self._new_population(phase, members)
         elif phase == "trim":
             self._finish_trim(members)
@@ -397,6 +408,7 @@ class VariationalGA(Method):
     def _start_refine(self, basis: bool = False) -> None:
         """Refine member 0 alone (``basis``) or the ``laws`` best members by the target with
         distinct structures (feasible first)."""
+        self._basis_refining = basis
         if basis:
             picks, budget = [0], self.refine_cfg.basis
         else:
@@ -419,6 +431,25 @@ class VariationalGA(Method):
             if k == 0:
                 self.q0 = self.params.decode(bits)
         self.lh = dominance_counts(self.F, self.CV)
+        if self._basis_refining and self.rescale is not None and self._template is None:
+            self._rescaled(self.rescale(self.candidate(self.pop[0]).law))
+        self._basis_refining = False
+
+    def _rescaled(self, law) -> None:
+        """Decode every candidate with ``law``'s input coordinates from now on (see
+        :attr:`rescale`): the basis takes ``law``'s parameters, the other members keep their
+        bits, and the whole population is flown again; CMA-ES searches of the old coordinates
+        are dropped."""
+        if law is None:
+            return
+        from descent_fmus.synthesis.methods.law import NetworkOperator
+        self._template = law.to_dict(formula=False)
+        self.decode = NetworkOperator.from_dict(self._template).with_structure
+        self.q0 = list(law.q)
+        members = [_Member(list(m.variations), m.bits.copy()) for m in self.pop]
+        members[0].bits = self.params.encode(self.q0)
+        self.refinement.pool.clear()
+        self._pending = ("rescale", members)
 
     # -- checkpoint -----------------------------------------------------------------------
     def state(self) -> dict:
@@ -434,6 +465,7 @@ class VariationalGA(Method):
                             "f": m.f.tolist(), "cv": m.cv} for m in self.pop],
             "refine_due": self._refine_due,
             "refine": None if self.refinement is None else self.refinement.state(),
+            "template": self._template, "basis_refining": self._basis_refining,
         }
 
     def load_state(self, st: dict) -> "VariationalGA":
@@ -451,4 +483,9 @@ class VariationalGA(Method):
         self._refine_due = st.get("refine_due", False)
         if self.refinement is not None:
             self.refinement.load_state(st.get("refine"), self.q0)
+        self._template = st.get("template")
+        self._basis_refining = st.get("basis_refining", False)
+        if self._template is not None:
+            from descent_fmus.synthesis.methods.law import NetworkOperator
+            self.decode = NetworkOperator.from_dict(self._template).with_structure
         return self

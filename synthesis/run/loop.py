@@ -269,6 +269,9 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
         announce("deriving the input scaling from the basic law's flights")
         problem, scaling = _auto_scaled(problem, fmu_dir, folder)
     search = make_method(method, problem)
+    if scaling is not None and hasattr(search, "rescale"):
+        from descent_fmus.synthesis.run.scaling import Rescaler
+        search.rescale = Rescaler(problem, *problem.fmu_paths(fmu_dir), problem.q_bits[2:])
     archive = load_archive(st["archive"]) if st else ParetoArchive()
     if st:
         search.load_state(st["method"])
@@ -303,7 +306,8 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     summary.update(_run_fields(loop, evaluator, time.perf_counter() - t0, method, out, curve,
                                checkpoints.written))
     if scaling is not None:
-        summary["input_scaling"] = scaling
+        refreshed = getattr(getattr(search, "rescale", None), "refreshes", [])
+        summary["input_scaling"] = dict(scaling, refreshed=refreshed)
     evaluator.close()
     write_json(out / "summary.json", summary)
     return summary

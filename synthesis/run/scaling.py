@@ -15,8 +15,12 @@ they are thousands that cancel.  This module finds those coordinates for any pro
    new coordinates (:func:`synthesis.methods.structures.fit_parameters`; the fit's residual is
    checked); any other law keeps the coordinates it was given.
 
-The scaling is recorded in the run (``scaling.json``, and with every exported law, whose
-``input_scale``/``input_offset`` are its coordinates).
+The coordinates are refreshed once, where the search has learnt more than the basic law
+knew: when the CMA-ES refinement of the basic solution ends, the refined law is flown, its own
+acting region measured and the search goes on in those coordinates (:class:`Rescaler`, the
+variational GA's ``rescale`` hook).  The scaling is recorded in the run (``scaling.json``, the
+summary, and with every exported law, whose ``input_scale``/``input_offset`` are its
+coordinates).
 """
 from __future__ import annotations
 
@@ -24,7 +28,7 @@ import numpy as np
 
 from descent_fmus.synthesis.methods.structures import fit_parameters, probe_inputs
 
-__all__ = ["input_window", "rescaled", "auto_scaling", "ScalingError"]
+__all__ = ["input_window", "rescaled", "auto_scaling", "ScalingError", "Rescaler"]
 
 #: Largest relative residual of the refit that still counts as the same function.
 EXACT = 1e-9
@@ -75,21 +79,52 @@ def rescaled(law, offset, scale):
     return new
 
 
-def auto_scaling(problem, plant_fmu, controller_fmu) -> tuple:
-    """``(problem with its basic law in the derived coordinates, what was derived)``: flies the
-    basic law from every initial state in this process (recording) and rewrites it."""
+def _window(problem, law, plant_fmu, controller_fmu) -> tuple:
+    """``(offset, scale, what was derived)`` from flights of ``law`` from every initial state
+    (in this process, recorded)."""
     from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
-    law = problem.basic()
     with ClosedLoop(problem.wiring, plant_fmu, controller_fmu) as loop:
         sv = law.start_values()
         flights = [loop.run(plant_values=s, controller_values=sv, record=True)
                    for s in problem.initial_states]
     offset, scale, points = input_window(law, flights, problem.wiring)
-    info = {"inputs": list(law.input_names), "offset": offset, "scale": scale,
-            "acting_points": points, "points": int(sum(len(r.time) for r in flights))}
+    return offset, scale, {"inputs": list(law.input_names), "offset": offset, "scale": scale,
+                           "acting_points": points,
+                           "points": int(sum(len(r.time) for r in flights))}
+
+
+def auto_scaling(problem, plant_fmu, controller_fmu) -> tuple:
+    """``(problem with its basic law in the derived coordinates, what was derived)``: flies the
+    basic law from every initial state in this process (recording) and rewrites it."""
+    law = problem.basic()
+    offset, scale, info = _window(problem, law, plant_fmu, controller_fmu)
     try:
         new = rescaled(law, offset, scale)
     except ScalingError as exc:
         return problem, dict(info, kept=str(exc), offset=law.input_offset,
                              scale=law.input_scale)
     return problem.with_(basic_law=new), info
+
+
+class Rescaler:
+    """The variational GA's ``rescale`` hook: the refined basic law in the coordinates where
+    it acts (None if it cannot be rewritten, or its parameters would leave the Gray code's
+    range ``(lo, hi)``); what it derived is kept in :attr:`refreshes`."""
+
+    def __init__(self, problem, plant_fmu, controller_fmu, q_range: tuple):
+        self.problem, self.fmus, self.q_range = problem, (plant_fmu, controller_fmu), q_range
+        self.refreshes: list = []
+
+    def __call__(self, law):
+        offset, scale, info = _window(self.problem, law, *self.fmus)
+        try:
+            new = rescaled(law, offset, scale)
+        except ScalingError as exc:
+            self.refreshes.append(dict(info, kept=str(exc)))
+            return None
+        lo, hi = self.q_range
+        if not all(lo <= v < hi for v in new.q):
+            self.refreshes.append(dict(info, kept="its parameters leave the Gray code's range"))
+            return None
+        self.refreshes.append(info)
+        return new
