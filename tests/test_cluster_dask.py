@@ -32,7 +32,8 @@ REENTRY = get_problem("reentry")
 PROBLEM_FILE = ROOT / "synthesis/systems/reentry/reentry.toml"
 SMALL = ["--population", "16", "--generations", "6", "--crossovers", "6", "--lchr", "4",
          "--epoch", "3", "--seed", "5", "--refine-basis", "0", "--refine-evals", "0",
-         "--flights", "0", "--basis-rule", "compromise", "--quiet", "--no-export",
+         "--flights", "0", "--basis-rule", "compromise", "--input-scaling", "given",
+         "--equivalence-probes", "0", "--quiet", "--no-export",
          "--no-reference", "--json"]
 FMUS = ("Reentry.fmu", "NetworkOperatorController.fmu")
 

@@ -23,7 +23,8 @@ ROOT = Path(__file__).resolve().parent.parent
 # the reentry problem as a problem file (the variational GA alone), a small budget
 SMALL = ["--problem", ROOT / "synthesis/systems/reentry/reentry.toml", "--population", "16",
          "--crossovers", "6", "--lchr", "4", "--epoch", "3", "--seed", "6", "--refine-basis",
-         "0", "--refine-evals", "0", "--flights", "0", "--basis-rule", "compromise", "--quiet",
+         "0", "--refine-evals", "0", "--flights", "0", "--basis-rule", "compromise",
+         "--input-scaling", "given", "--equivalence-probes", "0", "--quiet",
          "--no-export", "--no-reference"]
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),

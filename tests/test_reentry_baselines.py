@@ -20,7 +20,7 @@ from descent_fmus.synthesis.run.loop import run_synthesis
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 
-REENTRY = get_problem("reentry")
+REENTRY = get_problem("reentry-window")
 TINY = dict(population=8, generations=0, crossovers=2, lchr=2, epoch=2)
 
 

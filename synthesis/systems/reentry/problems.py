@@ -118,10 +118,19 @@ def nominal_problems() -> tuple:
         SynthesisProblem(
             name="reentry", wiring=WIRING, initial_states=(plant_values(ReentryParams()),),
             objectives=nominal_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
-            basic_law=basic, **REENTRY_RECIPE, objective_labels=_LABELS,
-            q_bits=Q_BITS, report=ReentryReport(), source="system reentry", target=TARGET,
-            baselines=baseline_structures,
-            description="S1 Earth reentry: min max load (J1) and miss at hf (J2) [m]"),
+            basic_law=robust_basic_law(), **REENTRY_RECIPE, objective_labels=_LABELS,
+            q_bits=AUTO_Q_BITS, report=ReentryReport(), source="system reentry",
+            target=TARGET, baselines=baseline_structures, input_scaling="auto",
+            description="S1 Earth reentry: min max load (J1) and miss at hf (J2) [m]; the "
+                        "inputs' coordinates derived from the flights"),
+        SynthesisProblem(
+            name="reentry-window", wiring=WIRING,
+            initial_states=(plant_values(ReentryParams()),), objectives=nominal_objectives,
+            objective_names=("J1", "J2"), penalty=_PENALTY, basic_law=basic, **REENTRY_RECIPE,
+            objective_labels=_LABELS, q_bits=Q_BITS, report=ReentryReport(),
+            source="system reentry", target=TARGET, baselines=baseline_structures,
+            description="S1 Earth reentry in the hand-picked input window (the default before "
+                        "automatic input scaling)"),
         SynthesisProblem(
             name="reentry-100m", wiring=WIRING, initial_states=(plant_values(ReentryParams()),),
             objectives=nominal_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
@@ -130,14 +139,6 @@ def nominal_problems() -> tuple:
             target=TARGET_TIGHT, baselines=baseline_structures,
             description="S1 Earth reentry, tight miss: as reentry, CMA-ES target J1 subject to "
                         "a miss below 100 m"),
-        SynthesisProblem(
-            name="reentry-auto", wiring=WIRING, initial_states=(plant_values(ReentryParams()),),
-            objectives=nominal_objectives, objective_names=("J1", "J2"), penalty=_PENALTY,
-            basic_law=robust_basic_law(), **REENTRY_RECIPE, objective_labels=_LABELS,
-            q_bits=AUTO_Q_BITS, report=ReentryReport(), source="system reentry",
-            target=TARGET, baselines=baseline_structures, input_scaling="auto",
-            description="S1 Earth reentry as reentry, the inputs' coordinates derived from the "
-                        "basic law's flight instead of the hand-picked window"),
         SynthesisProblem(
             name="reentry-robust", wiring=WIRING,
             initial_states=tuple(plant_values(ReentryParams(**c)) for c in ROBUST_CASES),
