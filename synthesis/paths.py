@@ -8,7 +8,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-__all__ = ["fmu_dir", "require_fmu", "FMUNotFoundError", "CHECKOUT"]
+__all__ = ["fmu_dir", "require_fmu", "FMUNotFoundError", "CHECKOUT", "cache_dir"]
 
 #: The repository root when the package runs from a checkout (editable install), else None.
 CHECKOUT = Path(__file__).resolve().parent.parent
@@ -28,6 +28,17 @@ def fmu_dir() -> Path:
     if CHECKOUT is not None:
         return CHECKOUT / "fmus"
     return Path("fmus")
+
+
+def cache_dir() -> Path:
+    """Where references computed once are kept for every later run (by the content they depend
+    on): ``$DESCENT_FMUS_CACHE`` if set, else ``$XDG_CACHE_HOME/descent-fmus``, else
+    ``~/.cache/descent-fmus``."""
+    env = os.environ.get("DESCENT_FMUS_CACHE")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "descent-fmus"
 
 
 def require_fmu(path) -> Path:

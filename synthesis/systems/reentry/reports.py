@@ -57,16 +57,51 @@ class ReentryReport(Report):
 BOUND_FILES = ("open_loop.json", "open_loop_1km.json")
 
 
+def _bound_key() -> str:
+    """What the bound depends on: the plant's and the bound's code, the entry conditions."""
+    import hashlib
+    import inspect
+    from dataclasses import asdict
+
+    from descent_fmus.models import integrators, reentry
+    from descent_fmus.models.reentry import ReentryParams
+    from descent_fmus.synthesis.methods import open_loop
+    from descent_fmus.synthesis.systems.reentry import bound
+    h = hashlib.sha256()
+    for module in (reentry, integrators, open_loop, bound):
+        h.update(inspect.getsource(module).encode())
+    h.update(repr((sorted(asdict(ReentryParams()).items()), ON_TARGET)).encode())
+    return h.hexdigest()[:20]
+
+
 def bound_reference(out_dir) -> tuple[float, float]:
     """J1 of the bound at zero miss and at miss <= 1 km (the best programs on the 1 s grid,
-    true-peak load; ~30 s), cached as ``open_loop.json`` / ``open_loop_1km.json`` in the run."""
+    true-peak load; ~30 s), written as ``open_loop.json`` / ``open_loop_1km.json`` into the run
+    and computed once: kept in the cache folder (:func:`synthesis.paths.cache_dir`) under the
+    content it depends on (the plant's and the bound's code, the entry conditions)."""
+    import shutil
+
+    from descent_fmus.synthesis.paths import cache_dir
     from descent_fmus.synthesis.systems.reentry.bound import Program, reference_bounds
-    paths = [Path(out_dir) / f for f in BOUND_FILES] if out_dir is not None else None
+    paths = [Path(out_dir) / f for f in BOUND_FILES] if out_dir is not None else []
     if paths and all(pth.exists() for pth in paths):
         return tuple(Program.load(pth).J1 for pth in paths)
-    progs = reference_bounds(ON_TARGET)
-    if paths:
-        for prog, pth in zip(progs, paths):
+    cached = [cache_dir() / f"bound-{_bound_key()}" / f for f in BOUND_FILES]
+    try:
+        progs = [Program.load(pth) for pth in cached]
+    except (OSError, ValueError, KeyError):
+        progs = reference_bounds(ON_TARGET)
+        try:
+            cached[0].parent.mkdir(parents=True, exist_ok=True)
+            for prog, pth in zip(progs, cached):
+                prog.save(pth.with_suffix(".tmp"))
+                pth.with_suffix(".tmp").replace(pth)
+        except OSError:                 # a read-only home: computed again next time
+            pass
+    for prog, pth, src in zip(progs, paths, cached):
+        if src.exists():
+            shutil.copyfile(src, pth)
+        else:
             prog.save(pth)
     return tuple(prog.J1 for prog in progs)
 
