@@ -567,3 +567,7 @@ int main(void)
         got = line.split()
         assert [int(v) if k in (0, 5, 10, 13, 15, 17, 20) else float.fromhex(v)
                 for k, v in enumerate(got)] == want, (x, u, p)
+
+
+def test_every_native_plant_is_flown_here():
+    assert sorted(CASES) == sorted(PLANTS)

@@ -29,6 +29,7 @@ from descent_fmus.synthesis.fmi.native.build import build_fmu, find_compiler
 from descent_fmus.synthesis.fmi.native.controllers import slave_variables
 from descent_fmus.synthesis.fmi.native.plant_library import export_functions, params_macros
 from descent_fmus.synthesis.fmi.native.plant_phases import dispatch_functions, trace_plant
+from descent_fmus.synthesis.fmi.native.plant_trace import TraceError, check_python
 
 __all__ = ["PlantSpec", "PLANTS", "plant_sources", "build_plant_fmu", "build_native_plants",
            "PLANT_FILES"]
@@ -172,6 +173,11 @@ def build_native_plants(native_dir, fmu_classes=None, compiler: str | None = Non
         return []
     if (compiler or find_compiler()) is None:
         say("native plants skipped: no C compiler (install gcc or clang, or set CC)")
+        return []
+    try:
+        check_python()
+    except TraceError as exc:
+        say(f"native plants skipped: {exc}")
         return []
     out, built = Path(native_dir), []
     for name in names:

@@ -433,8 +433,14 @@ def explore(tracer: Tracer, fn, limit: int = MAX_PATHS) -> Node:
     return root
 
 
+#: The CPython whose float arithmetic the C runtime reproduces: math.hypot (its own algorithm,
+#: whose subnormal branch changed in 3.12) and sum() of floats (in order; 3.12 compensates).
+PYTHON = (3, 11)
+
+
 def check_python() -> None:
-    """The traced evaluation order is that of CPython 3.10/3.11 (``sum`` of floats adds in
-    order; 3.12 compensates)."""
-    if sys.version_info >= (3, 12):
-        raise TraceError("plant tracing assumes CPython < 3.12 (sum() of floats)")
+    """Raise :class:`TraceError` unless this is the CPython the C runtime reproduces."""
+    if sys.version_info[:2] != PYTHON:
+        raise TraceError(f"the native plants reproduce CPython {PYTHON[0]}.{PYTHON[1]}'s "
+                         f"math.hypot and sum(); this is {sys.version_info[0]}."
+                         f"{sys.version_info[1]}")
