@@ -173,9 +173,9 @@ CASES["Telescope"] = dict(flights=_TELESCOPE_FLIGHTS, bad=_TELESCOPE_BAD,
 CASES["FlexibleTelescope"] = dict(
     flights=_TELESCOPE_FLIGHTS[:2] + [
         ({"n_gyros": 3, "freq[2]": 0.8, "zeta[1]": 0.02, "coupling[1]": 30.0},
-         _gimbal_program, 20, 1.0)],
+         _gimbal_program, 20, 1.0), _TELESCOPE_FLIGHTS[3]],
     bad=_TELESCOPE_BAD[:3] + [{"freq[3]": 0.0}, {"zeta[2]": -0.1}, {"coupling[5]": NAN}],
-    tolerance=TELESCOPE_TOLERANCE, statuses={0})
+    tolerance=TELESCOPE_TOLERANCE, statuses={0, 3})
 
 
 def _descent_law(y) -> dict:
