@@ -157,7 +157,7 @@ class _Checkpoints:
     def __init__(self, folder: RunFolder, evaluator, curve: list):
         self.folder, self.evaluator, self.curve = folder, evaluator, curve
         self.t, self.mark = None, None
-        self.written = 0
+        self.written, self.seconds = 0, 0.0
 
     def due(self, loop: RunLoop) -> bool:
         if self.t is None:
@@ -168,12 +168,14 @@ class _Checkpoints:
             or age >= CHECKPOINT_MAX_SECONDS
 
     def save(self, loop: RunLoop) -> None:
+        t0 = time.perf_counter()
         self.folder.save({"generation": loop.method.generation,
                           "method": loop.method.state(),
                           "archive": archive_state(loop.archive), "curve": self.curve,
                           "simulated": loop.flights}, self.evaluator.take_new_flown())
         self.t, self.mark = time.monotonic(), (loop.method.generation, loop.method.phase)
         self.written += 1
+        self.seconds += time.perf_counter() - t0
 
 
 # -- a synthesis run ------------------------------------------------------------------------------
@@ -264,14 +266,7 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     folder = RunFolder(out)
     st = folder.open(run_spec(problem, method), resume) or {}
     announce = _announcer(problem, progress)
-    scaling = None
-    if problem.input_scaling == "auto":
-        announce("deriving the input scaling from the basic law's flights")
-        problem, scaling = _auto_scaled(problem, fmu_dir, folder)
-    search = make_method(method, problem)
-    if scaling is not None and hasattr(search, "rescale"):
-        from descent_fmus.synthesis.run.scaling import Rescaler
-        search.rescale = Rescaler(problem, *problem.fmu_paths(fmu_dir), problem.q_bits[2:])
+    problem, search, scaling, t_scaling = _method(problem, method, fmu_dir, folder, announce)
     archive = load_archive(st["archive"]) if st else ParetoArchive()
     if st:
         search.load_state(st["method"])
@@ -296,13 +291,18 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     finally:
         if bar is not None:
             bar.close()
+    t_search = time.perf_counter() - t0
     checkpoints.save(loop)             # the search is done: a resume goes straight to the report
     if loop.interrupted:
         evaluator.close()
         return {"interrupted": True, "generation": search.generation,
                 "evaluations": search.evaluations}
+    timings: dict = {}
     summary = write_results(problem, loop.archive, evaluator, out, fmu_dir, export, reference,
-                            announce)
+                            announce, timings)
+    timings.update(scaling=t_scaling, search=t_search - checkpoints.seconds,
+                   checkpoints=checkpoints.seconds)
+    summary["timings"] = timings
     summary.update(_run_fields(loop, evaluator, time.perf_counter() - t0, method, out, curve,
                                checkpoints.written))
     if scaling is not None:
@@ -311,6 +311,22 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     evaluator.close()
     write_json(out / "summary.json", summary)
     return summary
+
+
+def _method(problem, method: str, fmu_dir, folder: RunFolder, announce) -> tuple:
+    """``(problem, the method built for it, what auto scaling derived, its seconds)``: with
+    ``input_scaling = "auto"`` the problem's basic law in derived coordinates, and the GA's
+    refresh of them after the basis refinement."""
+    t0 = time.perf_counter()
+    scaling = None
+    if problem.input_scaling == "auto":
+        announce("deriving the input scaling from the basic law's flights")
+        problem, scaling = _auto_scaled(problem, fmu_dir, folder)
+    search = make_method(method, problem)
+    if scaling is not None and hasattr(search, "rescale"):
+        from descent_fmus.synthesis.run.scaling import Rescaler
+        search.rescale = Rescaler(problem, *problem.fmu_paths(fmu_dir), problem.q_bits[2:])
+    return problem, search, scaling, time.perf_counter() - t0
 
 
 def _auto_scaled(problem, fmu_dir, folder: RunFolder) -> tuple:

@@ -11,6 +11,8 @@
 from __future__ import annotations
 
 import csv
+import os
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -98,10 +100,14 @@ def structure(problem, archive) -> dict:
 
 
 def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
-                  reference: bool, announce=None) -> dict:
+                  reference: bool, announce=None, timings: dict | None = None) -> dict:
     """Write the Pareto set (the archive's items ``(Candidate, f, cv)``), its figure and, as
     asked by ``export`` (True, False or a :class:`~synthesis.fmi.law_files.LawExport`), the law
-    files; the summary fields.  ``announce(text)`` is told each phase."""
+    files; the summary fields.  ``announce(text)`` is told each phase; ``timings`` receives
+    the seconds of the report, its reference and the export."""
+    import time
+    timings = {} if timings is None else timings
+    t0 = time.perf_counter()
     announce = announce or (lambda text: None)
     announce("writing the report")
     front = archive.sorted()
@@ -129,13 +135,19 @@ def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
     summary["equivalent_laws_not_flown"] = evaluator.equivalent
     if reference:
         announce("computing the problem's reference")
+    t_ref = time.perf_counter()
     summary.update(problem.report.summary(rows, out, reference))
+    timings["reference"] = time.perf_counter() - t_ref
     plot_front(problem, rows, summary, out / "pareto.png")
     what = LawExport.of(export)
     if what is not None:
         announce(f"exporting {len(rows)} laws")
+        t_exp = time.perf_counter()
         _export_laws(problem, rows, laws, what, out, fmu_dir, summary)
+        timings["export"] = time.perf_counter() - t_exp
         pareto_json()
+    timings["report"] = time.perf_counter() - t0 - timings["reference"] - \
+        timings.get("export", 0.0)
     summary["pareto"] = rows
     return summary
 
@@ -145,13 +157,19 @@ def _export_laws(problem, rows, laws, what, out, fmu_dir, summary) -> None:
     check_export_space(out, problem, fmu_dir, len(rows), what.closed_loops, law_fmu=kind)
     summary.update(law_fmus=kind, **({"law_fmu_note": note} if note else {}))
     stem = problem.wiring.name.removesuffix("ClosedLoop")
-    for r, law in zip(rows, laws):
-        r.update(export_law(problem, law, fmu_dir, out / "laws" / str(r["k"]),
-                            description=f"{problem.name} Pareto law {r['k']}",
-                            law_fmu=kind, closed_loop=what.closed_loops,
-                            identifier=f"{stem}Law{r['k']}",
-                            extra={"k": r["k"], "objectives": {
-                                n: r[n] for n in problem.objective_names}}))
+
+    def one(r, law):
+        return export_law(problem, law, fmu_dir, out / "laws" / str(r["k"]),
+                          description=f"{problem.name} Pareto law {r['k']}",
+                          law_fmu=kind, closed_loop=what.closed_loops,
+                          identifier=f"{stem}Law{r['k']}",
+                          extra={"k": r["k"], "objectives": {
+                              n: r[n] for n in problem.objective_names}})
+
+    # in parallel: a law's export waits mostly for the C compiler (a process of its own)
+    with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
+        for r, files in zip(rows, pool.map(one, rows, laws)):
+            r.update(files)
 
 
 def plot_front(problem, rows, summary, path: Path) -> None:

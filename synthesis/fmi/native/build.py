@@ -20,6 +20,7 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import threading
 import uuid
 import zipfile
 from dataclasses import dataclass
@@ -99,12 +100,18 @@ def _run(cmd, what) -> None:
 # synthesis run exports hundreds of laws.  Keyed by compiler, flags and the sources' content.
 _OBJECTS: dict = {}
 _OBJECT_DIR: list = []
+_OBJECTS_LOCK = threading.Lock()
 
 
 def _cached_object(cc: str, sources_dir: Path, name: str) -> Path:
     headers = [sources_dir / h for h in WRAPPER_FILES if h.endswith(".h")]
     key = hashlib.sha256(repr((cc, COMPILE_FLAGS, (sources_dir / name).read_bytes(),
                                [(h.name, h.read_bytes()) for h in headers])).encode()).hexdigest()
+    with _OBJECTS_LOCK:                  # laws are exported in parallel threads
+        return _compiled_object(cc, sources_dir, name, key)
+
+
+def _compiled_object(cc: str, sources_dir: Path, name: str, key: str) -> Path:
     if key not in _OBJECTS:
         if not _OBJECT_DIR:
             _OBJECT_DIR.append(Path(tempfile.mkdtemp(prefix="descent_native_objects_")))
