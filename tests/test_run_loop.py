@@ -42,6 +42,8 @@ def test_registered_problems_give_their_pinned_pareto_sets(name, fmu_dir, tmp_pa
     pin = PINS[name]
     problem = (load_problem_file(ROOT / pin["file"], fmu_dir) if "file" in pin
                else get_problem(pin["problem"])).tuned(**pin["settings"])
+    if "q_bits" in pin:                 # the Gray code the configuration was pinned with
+        problem = problem.with_(q_bits=tuple(pin["q_bits"]))
     s = run_synthesis(problem, tmp_path / "run", fmu_dir, method=pin["method"], progress=False,
                       export=False, reference=False)
     assert s["simulated"] == pin["simulated"]

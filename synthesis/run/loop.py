@@ -25,8 +25,8 @@ import numpy as np
 from descent_fmus.synthesis.methods.base import Candidate, Method
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.pareto import ParetoArchive
-from descent_fmus.synthesis.methods.registry import (NETWORK_OPERATOR, entry_of, make_method,
-                                                     method_names)
+from descent_fmus.synthesis.methods.registry import (NETWORK_OPERATOR, cma_target, entry_of,
+                                                     make_method, method_names)
 from descent_fmus.synthesis.problems.contract import SynthesisProblem
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.run.folder import RunDirError, RunFolder, run_spec, write_json
@@ -224,9 +224,10 @@ def _announcer(problem, progress: bool):
 
 
 def _curve_point(problem, loop: RunLoop) -> tuple | None:
-    """(flights, the target's best objective so far) for the learning curve."""
-    t = problem.target
-    if t is None or not len(loop.archive):
+    """(flights, the target's best objective so far) for the learning curve (the target:
+    the problem's, else its first objective)."""
+    t = cma_target(problem)
+    if not len(loop.archive):
         return None
     k = t.best(loop.archive.F, loop.archive.cv)
     return None if k is None else (loop.flights, float(loop.archive.F[k][t.objective]))

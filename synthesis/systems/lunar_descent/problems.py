@@ -204,8 +204,13 @@ class LunarDescentReport(Report):
 #: Default budget of ``descent-fmus synthesize lunar-descent`` [choice]: a flight costs about
 #: 15 ms through the FMUs and a law 5 flights, so this is ~12 000 evaluations, well under 15 min
 #: on 2 cores (measured run: models/README.md).
-LUNAR_DESCENT_RECIPE = recipe(population=128, generations=120, crossovers=32, lchr=8, epoch=10,
-                              seed=1)
+LUNAR_DESCENT_RECIPE = recipe(population=128, generations=1000, crossovers=32, lchr=8, epoch=10,
+                              seed=1, flights=14_000, refine_basis=8000, refine_evals=500)
+#: Gray code of the parameters [choice]: 7 + 31 bits over [-64, 64) -- the basic law's gain
+#: q8 = 16 sits on the edge of the former [-16, 16), and the former grid of 2^-11 held the
+#: CMA-ES refinement to J1 ~ 1.8 m where a continuous CMA-ES over the same gains reaches
+#: 0.017 m; the grid is now 4.7e-10.
+Q_BITS = (11, 31, -1024.0, 1024.0)
 
 #: Objectives of a law whose evaluation failed: twice the worst per-state penalty.
 _PENALTY = (2 * len(INITIAL_SET) * (HF + CRASH_S + NOT_IN_BOX_H + DescentParams().h_lo),
@@ -221,7 +226,7 @@ def problems() -> tuple:
             basic_law=synthesis_basic_law(), **LUNAR_DESCENT_RECIPE,
             objective_labels=("J1 = sum |hf - h(tf)| + penalties [m]",
                               "J2 = sum |Vf - V(tf)| + penalties [m/s]"),
-            q_bits=(5, 11, -16.0, 16.0), report=LunarDescentReport(),
+            q_bits=Q_BITS, report=LunarDescentReport(),
             source="system lunar_descent",
             description="S5 descent from lunar orbit: sum over 5 initial states of |hf - h(tf)| "
                         "+ penalties (J1) [m] and |Vf - V(tf)| + penalties (J2) [m/s]"),
