@@ -10,7 +10,7 @@ from pathlib import Path
 
 from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.variational_ga import PAPER_BINARY, PAPER_UNARY
-from descent_fmus.synthesis.problems.contract import Budget
+from descent_fmus.synthesis.problems.contract import DEFAULT_Q_BITS, Budget
 from descent_fmus.synthesis.problems.file_reader import Reader, read_settings
 from descent_fmus.synthesis.problems.limits import MAX_BASELINES
 
@@ -39,7 +39,7 @@ def read_recipe(rd: Reader, data, law) -> tuple:
 
 
 def _q_bits(rd: Reader, ga: dict, law) -> tuple:
-    q_lo, q_hi = -16.0, 16.0
+    q_lo, q_hi = DEFAULT_Q_BITS[2:]
     if "q_range" in ga:
         qr = ga["q_range"]
         if not (isinstance(qr, list) and len(qr) == 2 and all(
@@ -47,7 +47,7 @@ def _q_bits(rd: Reader, ga: dict, law) -> tuple:
                 for x in qr) and qr[0] < qr[1]):
             raise rd.error("ga.q_range", f"must be [min, max] with min < max, got {qr!r}")
         q_lo, q_hi = float(qr[0]), float(qr[1])
-    q_ib, q_fb = 4, 12
+    q_ib, q_fb = DEFAULT_Q_BITS[:2]
     if "q_bits" in ga:
         # up to 48 bits: the Gray code decodes through int64 and float64 (exact to 2^53)
         qb = ga["q_bits"]

@@ -74,8 +74,8 @@ fixed-structure baselines).  The format, key by key::
     crossovers = 16
     lchr = 6
     epoch = 8
-    q_range = [-16.0, 16.0]               # range of the parameters' Gray code
-    q_bits = [4, 12]                      # its integer and fraction bits (default 4 + 12)
+    q_range = [-16.0, 16.0]               # range of the parameters' Gray code (default +-1024)
+    q_bits = [4, 12]                      # its integer and fraction bits (default 11 + 31)
     # basis_rule = "target"  elite_trim = 4  p_mutation = 0.7  alpha = 0.4  ksearch = 4
     # unary = [1, 3, 4, 5, 8, 9, 10, 14, 15]   binary = [1, 2]   (operation numbers)
 
