@@ -100,11 +100,15 @@ def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):
     assert done["generations"] == full["generations"] == 6
 
 
-def test_killed_cli_run_resumes(fmu_dir, tmp_path):
-    # a real SIGKILL in the middle of a CLI run: resume loses at most one generation and
-    # finishes with the same Pareto set as an uninterrupted run of the same seed
-    args = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry", "--population", "16",
-            "--generations", "10", "--crossovers", "6", "--lchr", "4", "--epoch", "3",
+@pytest.mark.parametrize("budget", [("--generations", "10"),
+                                    ("--generations", "1000", "--flights", "260")],
+                         ids=["generations", "flights"])
+def test_killed_cli_run_resumes(fmu_dir, tmp_path, budget):
+    # a real SIGKILL in the middle of a CLI run (checkpoints at most a second apart, at
+    # generation and phase boundaries): resume finishes with the same Pareto set as an
+    # uninterrupted run of the same seed, whether the budget counts generations or flights
+    args = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry",
+            "--population", "16", *budget, "--crossovers", "6", "--lchr", "4", "--epoch", "3",
             "--seed", "4", "--workers", "1", "--quiet", "--no-export", "--no-reference",
             "--refine-evals", "20", "--refine-basis", "0", "--fmus", str(fmu_dir)]
     ref = subprocess.run(args + ["--out", str(tmp_path / "ref")], cwd=ROOT,
@@ -130,7 +134,14 @@ def test_killed_cli_run_resumes(fmu_dir, tmp_path):
     res = subprocess.run(args + ["--out", str(out), "--resume", "--json"], cwd=ROOT,
                          capture_output=True, text=True)
     assert res.returncode == 0, res.stderr
-    assert json.loads(res.stdout)["generations"] == 10
+    ref_summary = json.loads((tmp_path / "ref" / "summary.json").read_text())
+    done = json.loads(res.stdout)
+    assert done["generations"] == ref_summary["generations"]
+    assert done["flights"] == ref_summary["flights"]
+    if budget[0:2] == ("--generations", "10"):
+        assert done["generations"] == 10
+    else:                                           # the flight budget ended the run
+        assert done["flights"] >= 260 and done["generations"] < 1000
     assert (out / "pareto.csv").read_text() == (tmp_path / "ref" / "pareto.csv").read_text()
 
 
