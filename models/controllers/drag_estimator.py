@@ -137,6 +137,9 @@ class _EstimatorInputs:
     sensing parameters, the inputs ``a_drag`` and ``nav_x1..nav_x4``, the output
     ``drag_factor_log``."""
 
+    #: the estimator the FMU carries (a subclass of DragFactorEstimator)
+    estimator_class = DragFactorEstimator
+
     def register_estimator(self, on_input=None) -> None:
         self.parameters()                                    # DragEstimatorParams fields
         self.input("a_drag", 0.0, "sensed drag acceleration / g0 (the plant's aero_load) [1]",
@@ -148,6 +151,12 @@ class _EstimatorInputs:
                     getter=self.current_estimate)
         self.output("drag_factor", "estimated drag factor (rho0/m) / nominal [1]",
                     getter=lambda: math.exp(self.current_estimate()))
+        if hasattr(self.estimator_class, "profile"):          # the density-profile fit
+            self.output("scale_height_error", "estimated relative error of the model's density "
+                        "scale height, lam_nominal / lam_estimated - 1 [1]",
+                        getter=lambda: self.estimator().model.lam / self._profile().lam - 1.0)
+            self.output("drag_factor_sd", "standard deviation of drag_factor_log [1]",
+                        getter=lambda: self._profile().log_factor_sd)
         self._estimator = None
 
     def _setter(self, name, hook):
@@ -159,11 +168,14 @@ class _EstimatorInputs:
 
     def estimator(self) -> DragFactorEstimator:
         if self._estimator is None:
-            self._estimator = DragFactorEstimator(self.params())
+            self._estimator = self.estimator_class(self.params())
         return self._estimator
 
     def nav_state(self) -> tuple:
         return (self.nav_x1, self.nav_x2, self.nav_x3, self.nav_x4)
+
+    def _profile(self):
+        return self.estimator().profile(self.a_drag, self.nav_state())
 
     def current_estimate(self) -> float:
         return self.estimator().estimate(self.a_drag, self.nav_state())
@@ -190,7 +202,7 @@ class DragEstimator(_EstimatorInputs, SlaveBase):
         self.apply_resource_defaults()
 
     def prepare(self) -> None:
-        self._estimator = DragFactorEstimator(self.params())
+        self._estimator = self.estimator_class(self.params())
 
     def do_step(self, current_time: float, step_size: float) -> bool:
         self.commit_sample(self.u)
@@ -242,7 +254,7 @@ class SensedNetworkOperatorController(_EstimatorInputs, NetworkOperatorControlle
     def prepare(self) -> None:
         super().prepare()
         if self._registered:
-            self._estimator = DragFactorEstimator(self.params())
+            self._estimator = self.estimator_class(self.params())
 
     def _outputs(self):
         if self._dirty and self._registered and self.estimate_input:
