@@ -22,17 +22,19 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from descent_fmus.models.controllers.drag_estimator import (DragEstimatorParams,
-                                                            SensedNetworkOperatorController,
+from descent_fmus.models.controllers.density_profile import ProfileEstimator, ProfileParams
+from descent_fmus.models.controllers.drag_estimator import (SensedNetworkOperatorController,
                                                             _EstimatorInputs)
+from descent_fmus.models.controllers.reentry_replan import PLAN_KNOTS, plan_value, replan
 from descent_fmus.models.fmu_support import SlaveBase
 from descent_fmus.models.integrators import EVENT, OK, advance_to
 from descent_fmus.models.controllers.network_operator import NX_MAX
 from descent_fmus.models.params import ParameterError, param
 from descent_fmus.models.reentry import (T_PLUS, U_BOUNDS, ReentryParams, altitude, deviations,
-                                         downrange, rhs)
+                                         downrange, loads, rhs)
 
-__all__ = ["NPCParams", "GuidedParams", "gate_weight", "predict_range", "solve_control",
+__all__ = ["NPCParams", "GuidedParams", "gate_weight", "predict_range", "predict_flight",
+           "solve_control",
            "ReentryNPC", "GuidedNetworkOperatorController"]
 
 #: Prediction horizon beyond the current time [s] (a flight that has not reached hf by then
@@ -43,8 +45,8 @@ NOT_REACHED = 1.0e9
 
 
 @dataclass(frozen=True)
-class NPCParams(DragEstimatorParams):
-    """Parameters of the NPC guidance (plus the estimator's)."""
+class NPCParams(ProfileParams):
+    """Parameters of the NPC guidance (plus the density-profile estimator's)."""
 
     cycle: float = param(10.0, "s", "guidance period: the predicted miss is nulled every cycle",
                          positive=True)
@@ -67,12 +69,28 @@ class GuidedParams(NPCParams):
     correction_gate: float = param(0.0, "1", "load gate G [g] of a braking correction: c > 0 "
                                    "enters with the weight (1 - n/G)^2 below the drag load n = G "
                                    "and not above it (0 = no gate)")
+    replan: int = param(0, "1", "1: the correction is a plan over altitude re-solved every cycle "
+                        "for the least predicted peak load at zero predicted miss; 0: one "
+                        "number c")
+    replan_iterations: int = param(1, "1", "linear-programming steps of the plan per cycle")
+    replan_trust: float = param(0.1, "1", "trust region of a plan step: |change of a weight| "
+                                "<= this", positive=True)
+    replan_effort: float = param(0.02, "1", "cost of the plan's weights in the plan's objective "
+                                 "[g per unit weight]")
 
     def check(self) -> None:
         super().check()
         if self.correction_gate < 0.0:
             raise ParameterError(f"parameter correction_gate must be >= 0 g (0 = no gate), got "
                                  f"{self.correction_gate}")
+        if self.replan not in (0, 1):
+            raise ParameterError(f"parameter replan must be 0 or 1, got {self.replan}")
+        if self.replan_iterations < 0:
+            raise ParameterError(f"parameter replan_iterations must be >= 0, got "
+                                 f"{self.replan_iterations}")
+        if self.replan_effort < 0.0:
+            raise ParameterError(f"parameter replan_effort must be >= 0, got "
+                                 f"{self.replan_effort}")
 
 
 def gate_weight(x, c: float, gate: float, kd: float, model: ReentryParams) -> float:
@@ -88,32 +106,54 @@ def gate_weight(x, c: float, gate: float, kd: float, model: ReentryParams) -> fl
     return (1.0 - n / gate) ** 2 if n < gate else 0.0
 
 
-def predict_range(x, u, kd: float, model: ReentryParams = ReentryParams(),
-                  dt: float = 2.0) -> float:
-    """Predicted down-range [m] at h = hf from state ``x`` with the drag factor ``kd`` =
-    S rho0 / m [1/m] and the control ``u``: a number held over the whole prediction, or a
-    function ``u(x)`` of the predicted state, evaluated and held every ``dt``;
-    :data:`NOT_REACHED` if hf is not reached within the horizon (a flight that goes on counts
-    as far too long)."""
-    gm, _, lam, rz = model.constants()
-    rz_hf = rz + model.hf
+def predict_flight(x, control, kd: float, model: ReentryParams = ReentryParams(),
+                   dt: float = 2.0, lam: float | None = None, record: bool = True):
+    """The on-board prediction under a feedback ``control(x)`` evaluated and held every ``dt``:
+    ``(range at hf [m] or NOT_REACHED, loads)`` with the drag factor ``kd`` = S rho0 / m [1/m]
+    and the inverse scale height ``lam`` (default the model's); ``loads`` are the paper's load
+    (models.reentry.loads) at both ends of every step under that step's control (both
+    one-sided values of every control change, as the plant samples them) and at the landing
+    (an empty list without ``record``)."""
+    gm, _, lam_m, rz = model.constants()
+    lam = lam_m if lam is None else lam
+    rz_hf, g0 = rz + model.hf, model.g0
 
     def event(y):
         return math.hypot(y[0], y[2]) - rz_hf
 
-    x = tuple(x)
-    if not callable(u):
-        xe, _, outcome = advance_to(rhs, x, 0.0, HORIZON, dt, (u, gm, kd, lam, rz), event=event)
-        return downrange(xe, rz) if outcome == EVENT else NOT_REACHED
-    t = 0.0
+    x, t, samples = tuple(x), 0.0, []
     while t < HORIZON - 1e-9:
-        x, _, outcome = advance_to(rhs, x, 0.0, dt, dt, (u(x), gm, kd, lam, rz), event=event)
+        args = (control(x), gm, kd, lam, rz)
+        if record:
+            samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
+        x, _, outcome = advance_to(rhs, x, 0.0, dt, dt, args, event=event)
         if outcome == EVENT:
-            return downrange(x, rz)
+            if record:
+                samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
+            return downrange(x, rz), samples
         if outcome != OK:
             break
+        if record:       # the left-hand value at the step's end: the load jumps with u there
+            samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
         t += dt
-    return NOT_REACHED
+    return NOT_REACHED, samples
+
+
+def predict_range(x, u, kd: float, model: ReentryParams = ReentryParams(),
+                  dt: float = 2.0, lam: float | None = None) -> float:
+    """Predicted down-range [m] at h = hf from state ``x`` with the drag factor ``kd`` =
+    S rho0 / m [1/m], the inverse scale height ``lam`` (default the model's) and the control
+    ``u``: a number held over the whole prediction, or a function ``u(x)`` of the predicted
+    state, evaluated and held every ``dt`` (:func:`predict_flight`); :data:`NOT_REACHED` if hf
+    is not reached within the horizon (a flight that goes on counts as far too long)."""
+    if callable(u):
+        return predict_flight(x, u, kd, model, dt, lam, record=False)[0]
+    gm, _, lam_m, rz = model.constants()
+    rz_hf = rz + model.hf
+    xe, _, outcome = advance_to(rhs, tuple(x), 0.0, HORIZON, dt,
+                                (u, gm, kd, lam_m if lam is None else lam, rz),
+                                event=lambda y: math.hypot(y[0], y[2]) - rz_hf)
+    return downrange(xe, rz) if outcome == EVENT else NOT_REACHED
 
 
 def solve_control(miss, u0: float, tol: float, max_iter: int, bounds=U_BOUNDS):
@@ -166,8 +206,10 @@ class ReentryNPC(_EstimatorInputs, _GuidanceCycle, SlaveBase):
     """
 
     params_class = NPCParams
+    estimator_class = ProfileEstimator
     description = ("S1 numerical predictor-corrector guidance: every cycle, the constant u that "
-                   "nulls the miss predicted with the nominal model and the estimated drag factor")
+                   "nulls the miss predicted with the nominal model and the estimated density "
+                   "profile (factor and scale height)")
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
@@ -204,11 +246,11 @@ class ReentryNPC(_EstimatorInputs, _GuidanceCycle, SlaveBase):
         return self._u, self._miss
 
     def _correct(self, x) -> None:
-        kd = self._kd * math.exp(self.current_estimate())
+        prof = self.estimator().profile(self.a_drag, x)
         lf, dt = self._model.Lf, self.dt_pred
 
         def miss(u):
-            return predict_range(x, u, kd, self._model, dt) - lf
+            return predict_range(x, u, prof.kd, self._model, dt, prof.lam) - lf
 
         self._u, self._miss, n = solve_control(miss, self._u, self.tol, self.max_iter)
         self._n_pred += n
@@ -243,6 +285,7 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
     """
 
     params_class = GuidedParams
+    estimator_class = ProfileEstimator
     description = ("Network-operator law reading the drag-factor estimate y3 and an on-board "
                    "predictor-corrector correction c: u = phi(y1, y2, y3, c, q)")
 
@@ -284,19 +327,29 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
             self._kd = self._model.constants()[1]
             self._t, self._next = 0.0, 0.0
             self._c, self._miss, self._n_pred = 0.0, 0.0, 0
+            self._plan, self._peak = [0.0] * len(PLAN_KNOTS), 0.0
+
+    def _correction_at(self, x) -> float:
+        """The correction now: c, or the plan's value at the altitude of ``x``."""
+        if not self.replan:
+            return self._c
+        return plan_value(self._plan, altitude(x, self._model.Rz))
 
     def _outputs(self):
         if self._dirty and self._guided and self._active():
-            self._maybe_correct(self.nav_state(), self.cycle)
+            x = self.nav_state()
+            self._maybe_correct(x, self.cycle)
+            c = self._c = self._correction_at(x) if self.replan else self._c
             if self._reads_c():
-                self.x[self.correction_input - 1] = self._c
+                self.x[self.correction_input - 1] = c
             u = super()._outputs()
             if self.correction_gain:
-                if self.correction_gate and self._c > 0.0:     # the gate needs the state
-                    u[0] = self._corrected(u[0], self._c, self.nav_state(),
-                                           self._kd * math.exp(self.current_estimate()))
+                if self.correction_gate and c > 0.0:     # the gate needs the state
+                    u[0] = self._corrected(u[0], c, x,
+                                           self._kd * math.exp(self.current_estimate()),
+                                           self._model)
                 else:
-                    u[0] = self._corrected(u[0], self._c)
+                    u[0] = self._corrected(u[0], c)
             return u
         return super()._outputs()
 
@@ -306,40 +359,81 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
     def _active(self) -> bool:
         return self._reads_c() or self.correction_gain != 0.0
 
-    def _corrected(self, u: float, c: float, x=None, kd: float = 0.0) -> float:
+    def _corrected(self, u: float, c: float, x=None, kd: float = 0.0, model=None) -> float:
         """The law's clipped output plus g w c (w: :func:`gate_weight` at the state ``x`` with
-        the drag factor ``kd``; 1 without a gate or for c <= 0, where ``x`` is not needed),
-        clipped to the same bounds."""
-        w = gate_weight(x, c, self.correction_gate, kd, self._model) \
+        the drag factor ``kd`` and ``model``'s scale height; 1 without a gate or for c <= 0,
+        where ``x`` is not needed), clipped to the same bounds."""
+        w = gate_weight(x, c, self.correction_gate, kd, model) \
             if self.correction_gate and c > 0.0 else 1.0
         v = u + self.correction_gain * w * c
         return self.u_lo[0] if v < self.u_lo[0] else (self.u_hi[0] if v > self.u_hi[0] else v)
 
-    def _correct(self, x) -> None:
-        y3 = self.current_estimate()
-        kd = self._kd * math.exp(y3)
+    def _predictor(self, x, prof):
+        """``control(correction)``: the guidance as the prediction flies it -- the law on the
+        predicted state (y1, y2 on the line, y3 the fitted profile's log factor at the predicted
+        altitude) plus the correction ``correction(xp)``."""
         inputs = list(self.x[:self.nx])
-        if 0 < self.estimate_input <= self.nx:
-            inputs[self.estimate_input - 1] = y3
-        k_c, line, law = self.correction_input - 1, self._line, self.law
+        k_e = self.estimate_input - 1 if 0 < self.estimate_input <= self.nx else -1
+        k_c, line, law, rz = self.correction_input - 1, self._line, self.law, self._model.Rz
         reads, gain, corrected = self._reads_c(), self.correction_gain, self._corrected
+        kd, dlam, h_now = prof.kd, prof.lam - self._model.lam, altitude(x, rz)
+        model = self._model if dlam == 0.0 else self._model.with_(lam=prof.lam)
 
-        def miss(c):
-            if reads:
-                inputs[k_c] = c
-
+        def control_for(correction):
             def control(xp):
                 inputs[0], inputs[1] = deviations(xp, line)
+                if k_e >= 0:
+                    inputs[k_e] = prof.log_factor - dlam * (altitude(xp, rz) - h_now)
+                c = correction(xp)
+                if reads:
+                    inputs[k_c] = c
                 u = law(inputs)[0]
-                return corrected(u, c, xp, kd) if gain else u
-            return predict_range(x, control, kd, self._model, self.dt_pred) - self._model.Lf
+                return corrected(u, c, xp, kd, model) if gain else u
+            return control
+        return control_for
 
+    def _correct(self, x) -> None:
+        prof = self.estimator().profile(self.a_drag, x)
+        control_for = self._predictor(x, prof)
+        lf, dt, model, rz = self._model.Lf, self.dt_pred, self._model, self._model.Rz
         bound = self.correction_max
-        self._c, self._miss, n = solve_control(miss, self._c, self.tol, self.max_iter,
-                                               (-bound, bound))
+
+        def solve(miss):
+            return solve_control(miss, 0.0, self.tol, self.max_iter, (-bound, bound))
+
+        if self.replan:
+            def evaluate(c):
+                rng, samples = predict_flight(
+                    x, control_for(lambda xp: plan_value(c, altitude(xp, rz))), prof.kd, model,
+                    dt, prof.lam)
+                return rng - lf, samples
+            self._plan, self._miss, n = replan(evaluate, self._plan, bound, self.replan_trust,
+                                               self.replan_effort, self._peak,
+                                               self.replan_iterations, solve)
+        else:
+            def miss(c):
+                return predict_range(x, control_for(lambda xp: c), prof.kd, model, dt,
+                                     prof.lam) - lf
+            self._c, self._miss, n = solve_control(miss, self._c, self.tol, self.max_iter,
+                                                   (-bound, bound))
         self._n_pred += n
 
+    def _track_peak(self, u: float) -> None:
+        """The running peak of the model's load at the navigated states (the plan's floor)."""
+        x = self.nav_state()
+        try:
+            prof = self.estimator().profile(self.a_drag, x)
+            gm, _, _, rz = self._model.constants()
+            args = (u, gm, prof.kd, prof.lam, rz)
+            n = loads(x, rhs(x, *args), prof.kd, prof.lam, rz, self._model.g0, u)[0]
+        except (ArithmeticError, ValueError):
+            return
+        if n > self._peak:
+            self._peak = n
+
     def do_step(self, current_time: float, step_size: float) -> bool:
+        if self.replan:
+            self._track_peak(self._outputs()[0])
         ok = super().do_step(current_time, step_size)
         self._t = current_time + step_size
         return ok

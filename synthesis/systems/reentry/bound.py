@@ -244,7 +244,8 @@ def optimize_open_loop(p: ReentryParams = ReentryParams(), t_seg: float = T_SEG,
     if not miss_tol >= 0:
         raise ValueError(f"miss_tol must be >= 0, got {miss_tol}")
     n = int(math.ceil(T_PLUS / t_seg - 1e-9))
-    n_samples = 3 * n + 2                     # upper bound on the samples of one flight
+    # upper bound on the samples of one flight: every sub-step start, two per segment end
+    n_samples = int(math.ceil(T_PLUS / DT_INTEGRATION)) + 2 * n + 2
 
     def pad(a, fill):
         out = np.full((n_samples,) + a.shape[1:], fill)

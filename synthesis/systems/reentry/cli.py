@@ -6,7 +6,10 @@ from pathlib import Path
 
 from descent_fmus.synthesis.cli.common import (CliError, add_common_options, emit, finite_float,
                                                fmu_folder, positive_float, positive_int)
+from descent_fmus.synthesis.systems.reentry.error_families import FAMILIES
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
+
+FAMILY_NAMES = tuple(FAMILIES)
 
 __all__ = ["add_commands"]
 
@@ -63,6 +66,17 @@ def add_commands(sub) -> None:
                         "enters with the weight (1 - n/G)^2 below the drag load n = G, not "
                         "above it; 0 = no gate (the default).  Repeatable: every law with the "
                         "correction flies once per gate")
+    r.add_argument("--replan", action="store_true",
+                   help="every law with the correction c also flies with the on-board "
+                        "re-planner (replan = 1: the correction a plan over altitude re-solved "
+                        "every cycle for the least predicted peak load at zero predicted miss)")
+    r.add_argument("--errors", nargs="+", metavar="FAMILY",
+                   help="model-error families to fly instead of the scenarios' uniform sets: "
+                        f"{', '.join(FAMILY_NAMES)} (a Latin-hypercube held-out set of each, the "
+                        "oracle bound and the load oracle beside every option)")
+    r.add_argument("--load-oracle", type=int, default=None, metavar="N",
+                   help="with --errors: compute the load oracle (least peak load at zero miss, "
+                        "~30 s a sample, cached) on the first N samples only (default all)")
     r.add_argument("--program", type=Path, help="open-loop program JSON of the default scenario "
                    "(reentry bound --out), flown blind")
     r.add_argument("--program-second", type=Path, metavar="FILE",
@@ -70,8 +84,8 @@ def add_commands(sub) -> None:
     r.add_argument("--samples", type=positive_int, default=200,
                    help="held-out samples per scenario (default 200)")
     r.add_argument("--seed", type=int, default=7, help="seed of the held-out set (default 7; "
-                   "the synthesis set is the nominal point + 15 uniform samples, seed 1: the sets are "
-                        "disjoint)")
+                   "the synthesis set is the nominal point + 15 uniform samples, seed 1: the sets "
+                   "are disjoint)")
     r.add_argument("--scenario", choices=("default", "second", "both"), default="default",
                    help="entry conditions (second: V0 8000 m/s, h0 80 km, beta0 -1.6 deg)")
     r.add_argument("--no-npc", action="store_true", help="skip the NPC guidance")
@@ -163,9 +177,11 @@ def run_robustness(args) -> int:
         for gate in args.gate or [0.0]:
             laws[f"{name}, gate {gate:g} g" if gate else name] = \
                 (law, {"correction_gate": gate}) if gate else law
-    if args.gate and not gated:
-        raise CliError("--gate applies to laws flown with the correction c (--guided LAW, or a "
-                       "law of reentry-guided); none was given")
+        if args.replan:
+            laws[f"{name}, re-planned"] = (law, {"replan": 1})
+    if (args.gate or args.replan) and not gated:
+        raise CliError("--gate and --replan apply to laws flown with the correction c (--guided "
+                       "LAW, or a law of reentry-guided); none was given")
     programs = {}
     for scenario, path in (("default", args.program), ("second", args.program_second)):
         if path:
@@ -173,10 +189,34 @@ def run_robustness(args) -> int:
                 programs[scenario] = Program.load(path)
             except (OSError, ValueError) as exc:
                 raise CliError(f"cannot read {path}: {exc}") from None
+    if args.errors:
+        return _run_families(args, laws)
     scenarios = ("default", "second") if args.scenario == "both" else (args.scenario,)
     study = robust_study(laws, args.samples, args.seed, fmu_folder(args), scenarios,
                          programs=programs, npc=not args.no_npc, oracle=not args.no_oracle,
                          noise=args.noise, bias=args.bias)
+    summary = {k: v for k, v in study.items() if k != "scenarios"}
+    summary["scenarios"] = {n: {"stats": sc["stats"]} for n, sc in study["scenarios"].items()}
+    if args.plot:
+        plot_robust_study(study, args.plot)
+        summary["plot"] = str(args.plot)
+    emit(args, summary, "\n".join(table_lines(study)))
+    return 0
+
+
+def _run_families(args, laws) -> int:
+    """``reentry robustness --errors FAMILY...``: each family's held-out set (family_study)."""
+    from descent_fmus.synthesis.systems.reentry.family_study import family_study
+    from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
+                                                                      table_lines)
+    bad = [f for f in args.errors if f not in FAMILIES]
+    if bad:
+        raise CliError(f"unknown error family {bad[0]!r}; choose from {', '.join(FAMILIES)}")
+    if args.load_oracle is not None and args.load_oracle < 0:
+        raise CliError(f"--load-oracle must be >= 0, got {args.load_oracle}")
+    study = family_study(laws, args.errors, args.samples, args.seed, fmu_folder(args),
+                         npc=not args.no_npc, oracle=not args.no_oracle,
+                         load_oracle=args.load_oracle)
     summary = {k: v for k, v in study.items() if k != "scenarios"}
     summary["scenarios"] = {n: {"stats": sc["stats"]} for n, sc in study["scenarios"].items()}
     if args.plot:

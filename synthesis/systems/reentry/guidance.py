@@ -82,13 +82,15 @@ GUIDED_WIRING = Wiring(
 )
 
 #: Parameters the closed-loop FMUs expose: the dispersed plant parameters and the sensing.
-_PLANT_PARAMETERS = tuple((n, "plant", n) for n in ("V0", "h0", "beta0", "m", "rho0"))
+_PLANT_PARAMETERS = tuple((n, "plant", n) for n in ("V0", "h0", "beta0", "m", "rho0", "lam"))
 _SENSING = tuple((n, "controller", n) for n in ("threshold", "noise", "bias", "noise_seed"))
 SENSED_LOOP_PARAMETERS = _PLANT_PARAMETERS + _SENSING
-NPC_LOOP_PARAMETERS = _PLANT_PARAMETERS + _SENSING + (("cycle", "controller", "cycle"),)
-GUIDED_LOOP_PARAMETERS = NPC_LOOP_PARAMETERS + (("h0_line", "controller", "h0_line"),
-                                                 ("correction_gate", "controller",
-                                                  "correction_gate"))
+_PROFILE = tuple((n, "controller", n) for n in ("accel_sigma", "scale_prior", "bias_prior"))
+NPC_LOOP_PARAMETERS = _PLANT_PARAMETERS + _SENSING + _PROFILE + (("cycle", "controller",
+                                                                   "cycle"),)
+GUIDED_LOOP_PARAMETERS = NPC_LOOP_PARAMETERS + tuple(
+    (n, "controller", n) for n in ("h0_line", "correction_gate", "replan", "replan_iterations",
+                                   "replan_trust", "replan_effort"))
 
 
 def reads_estimate(law: NetworkOperator) -> bool:

@@ -28,6 +28,7 @@ import numpy as np
 from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.systems.reentry.error_families import Sample
 from descent_fmus.synthesis.systems.reentry.guidance import (GUIDED_WIRING, NPC_WIRING,
                                                              SENSED_WIRING,
                                                              reads_correction,
@@ -93,10 +94,14 @@ def _sensing(noise: float, bias: float, k: int, seed: int) -> dict:
 def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise, bias, seed,
               per_sample=None):
     rows = []
+    sensed = wiring is not WIRING
     with ClosedLoop(wiring, fmu_dir / plant, fmu_dir / ctrl_fmu) as loop:
         for k, p in enumerate(params):
             cv = dict(controller_values)
             cv.update(_sensing(noise, bias, k, seed))
+            p, errors = (p.plant, p.sensing) if isinstance(p, Sample) else (p, {})
+            if sensed:
+                cv.update(errors)           # the sample's accelerometer errors
             if per_sample is not None:
                 cv.update(per_sample(p))
             rows.append(objectives(loop.run(plant_values(p), cv).final, p))
@@ -105,9 +110,11 @@ def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise
 
 def fly_law(law: NetworkOperator, params, fmu_dir, noise: float = 0.0, bias: float = 0.0,
             seed: int = 0, guidance: dict | None = None) -> list:
-    """Objectives of ``law`` on every sample (the guided wiring if the law reads the on-board
-    correction c, with the controller parameters ``guidance`` (e.g. ``correction_gate``) over
-    the law's own; the sensed wiring if it reads y3)."""
+    """Objectives of ``law`` on every sample (a ReentryParams, or a
+    :class:`~.error_families.Sample` whose sensing errors the estimator simulates; the guided
+    wiring if the law reads the on-board correction c, with the controller parameters
+    ``guidance`` (e.g. ``correction_gate``) over the law's own; the sensed wiring if it reads
+    y3)."""
     fmu_dir = Path(fmu_dir)
     if reads_correction(law):
         return _fly_loop(GUIDED_WIRING, fmu_dir, "Reentry.fmu",
@@ -210,10 +217,15 @@ def _fmt(v, unit_km=False, pct=False):
 
 def table_lines(study: dict) -> list:
     """The printed table(s): one per scenario."""
-    lines = [f"held-out set: {study['samples']} uniform samples of the dispersion set, seed "
-             f"{study['seed']}; synthesis set: {study['synthesis_set']['samples']} points "
-             f"(nominal + uniform), seed {study['synthesis_set']['seed']} -- "
-             + ("disjoint" if study["disjoint"] else "NOT disjoint")]
+    if "families" in study:
+        lines = [f"held-out sets: {study['samples']} Latin-hypercube samples of each error "
+                 f"family, seed {study['seed']}"]
+        lines += [f"  {n}: {d}" for n, d in study["families"].items()]
+    else:
+        lines = [f"held-out set: {study['samples']} uniform samples of the dispersion set, "
+                 f"seed {study['seed']}; synthesis set: {study['synthesis_set']['samples']} "
+                 f"points (nominal + uniform), seed {study['synthesis_set']['seed']} -- "
+                 + ("disjoint" if study["disjoint"] else "NOT disjoint")]
     if study.get("noise") or study.get("bias"):
         lines.append(f"accelerometer noise {study['noise']} m/s2, bias {study['bias']} m/s2")
     head = (f"{'guidance':34s} {'med':>7s} {'p90':>7s} {'p95':>7s} {'max':>7s} {'<1km':>5s} "
@@ -251,13 +263,18 @@ def plot_robust_study(study: dict, path) -> Path:
             style = dict(color="k", lw=2.2, ls="--") if g == ORACLE else dict(lw=1.6)
             ax.step(m, y, where="post", label=g[:52], **style)
         ax.set_xscale("symlog", linthresh=0.1)
+        what = "errors" if "families" in study else "scenario"
         ax.set(xlabel="miss |L(tf) - Lf| [km]", ylabel="share of samples",
-               title=f"{name} scenario: miss CDF ({len(sc['params'])} held-out samples)")
+               title=f"{name} {what}: miss CDF ({len(sc['params'])} held-out samples)")
         ax.axvline(1.0, color="0.6", lw=0.8)
         ax.legend(fontsize=7, loc="lower right")
         names = list(sc["results"])
         j1 = [np.array([r["J1"] for r in sc["results"][g]]) for g in names]
+        load = [r["J1_load"] for r in sc.get("limits", ()) if "J1_load" in r]
+        if load:                            # the physical limit beside the options
+            names.append("load oracle (min J1 at zero miss)")
+            j1.append(np.array(load))
         row[1].boxplot(j1, tick_labels=[textwrap.fill(g, 14) for g in names])
-        row[1].set(ylabel="J1 (max load)", title=f"{name} scenario: J1")
+        row[1].set(ylabel="J1 (max load)", title=f"{name} {what}: J1")
         row[1].tick_params(axis="x", labelsize=7)
     return save_figure(fig, path, list(axes.ravel()), dpi=100)
