@@ -117,14 +117,39 @@ def cluster(tmp_path):
     c.close()
 
 
-@pytest.fixture
-def client_fmus(tmp_path, fmu_dir):
-    """A copy of the FMUs only the client sees (renamed away by the tests)."""
-    d = tmp_path / "client_fmus"
-    d.mkdir()
+def _copy_fmus(fmu_dir: Path, d: Path, native: bool) -> Path:
+    (d / "native").mkdir(parents=True)
     for f in FMUS:
         shutil.copy(fmu_dir / f, d / f)
+        if native and (fmu_dir / "native" / f).is_file():
+            shutil.copy(fmu_dir / "native" / f, d / "native" / f)
     return d
+
+
+@pytest.fixture
+def client_fmus(tmp_path, fmu_dir):
+    """A copy of the pythonfmu FMUs only the client sees (renamed away by the tests): the
+    pythonfmu path, whose flights are slow enough to lose a worker in the middle of a batch."""
+    return _copy_fmus(fmu_dir, tmp_path / "client_fmus", native=False)
+
+
+@pytest.fixture
+def client_fmus_native(tmp_path, fmu_dir):
+    """The same with the native twins beside them where they are built (the evaluator's
+    default path)."""
+    return _copy_fmus(fmu_dir, tmp_path / "client_fmus_native", native=True)
+
+
+def _native(d: Path) -> bool:
+    return all((d / "native" / f).is_file() for f in FMUS)
+
+
+def _worker_paths(client) -> dict:
+    """{worker address: the closed-loop paths its flyers took}."""
+    def paths(dask_worker):
+        return sorted({fl.loop.path for p in dask_worker.plugins.values()
+                       for fl in getattr(p, "flyers", {}).values() if fl.loop is not None})
+    return client.run(paths)
 
 
 def _cli(*args, **kw):
@@ -134,7 +159,8 @@ def _cli(*args, **kw):
                             text=True, **kw)
 
 
-def test_synthesis_needs_no_shared_folder(cluster, client_fmus, fmu_dir, tmp_path):
+def test_synthesis_needs_no_shared_folder(cluster, client_fmus_native, fmu_dir, tmp_path):
+    client_fmus = client_fmus_native
     out = tmp_path / "dask_run"
     run = _cli("synthesize", "--problem", PROBLEM_FILE, *SMALL, "--scheduler", cluster.address,
                "--fmus", str(client_fmus), "--out", str(out))
@@ -147,15 +173,19 @@ def test_synthesis_needs_no_shared_folder(cluster, client_fmus, fmu_dir, tmp_pat
     assert run.returncode == 0, stderr
     summary = json.loads(stdout)
     assert summary["failures"] == 0 and summary["generations"] == 6
+    native = _native(fmu_dir)
+    assert summary["flight_path"] == ("native-container" if native else "master")
     local = _cli("synthesize", "--problem", PROBLEM_FILE, *SMALL, "--workers", "1",
                  "--fmus", str(fmu_dir),
                  "--out", str(tmp_path / "local_run"))
     assert local.wait(300) == 0, local.stderr.read()
     # same seed, same FMUs => the same Pareto set, to the last digit
     assert (out / "pareto.csv").read_text() == (tmp_path / "local_run" / "pareto.csv").read_text()
-    # each worker holds the FMUs once, by content hash, in its own local directory
-    shipped = sorted(p.name for p in (cluster.base / "local-w0").rglob("*.fmu"))
-    assert shipped == sorted(FMUS)
+    # each worker holds the FMUs once, in a folder named by their hash, in its own local
+    # directory, with the native twins beside them as on the client
+    shipped = sorted(str(p.relative_to(p.parents[1 if p.parent.name == "native" else 0]))
+                     for p in (cluster.base / "local-w0").rglob("*.fmu"))
+    assert shipped == sorted(FMUS + (tuple(f"native/{f}" for f in FMUS) if native else ()))
 
 
 def test_worker_loss_mid_batch_and_a_joining_worker(cluster, client_fmus, fmu_dir):
@@ -170,6 +200,8 @@ def test_worker_loss_mid_batch_and_a_joining_worker(cluster, client_fmus, fmu_di
     with Evaluator(REENTRY, client_fmus, scheduler=cluster.address) as ev:
         client_fmus.rename(client_fmus.with_name("gone"))
         ev.evaluate(laws[:4])                         # both workers have loaded the FMUs
+        assert ev.path == "master"
+        assert list(_worker_paths(ev.client).values()) == [["master"], ["master"]]
         killed = []
         timer = threading.Timer(0.4, lambda: (cluster.kill("w1"), killed.append(time.time())))
         timer.start()
@@ -187,6 +219,26 @@ def test_worker_loss_mid_batch_and_a_joining_worker(cluster, client_fmus, fmu_di
         assert addresses["w2"] in ran_on
         assert ev.failures == 0
         np.testing.assert_array_equal(F_more, F_more_ref)
+
+
+def test_workers_fly_the_native_twins(cluster, client_fmus_native, fmu_dir):
+    # the workers take the path the client would: the native twins shipped beside the
+    # pythonfmu FMUs; the same numbers as this process's own flights, bit for bit
+    if not _native(fmu_dir):
+        pytest.skip("the native FMUs are not built (no C compiler)")
+    laws = [c.law for c in make_method("network-operator",
+                                       REENTRY.tuned(population=32, seed=6)).ask()]
+    with Evaluator(REENTRY, fmu_dir) as local:
+        assert local.path == "native-container"
+        F_ref = local.evaluate(laws).F
+    with Evaluator(REENTRY, client_fmus_native, scheduler=cluster.address) as ev:
+        client_fmus_native.rename(client_fmus_native.with_name("gone"))
+        assert ev.path == "native-container"
+        F = ev.evaluate(laws).F
+        # (a worker given no task has loaded nothing)
+        assert set(tuple(v) for v in _worker_paths(ev.client).values() if v) \
+            == {("native-container",)}
+    np.testing.assert_array_equal(F, F_ref)
 
 
 def test_every_candidate_failing_stops_the_run(cluster, client_fmus, tmp_path):

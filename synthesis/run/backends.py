@@ -22,6 +22,7 @@ import signal
 import time
 from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor
 from concurrent.futures import wait as wait_futures
+from pathlib import Path
 from concurrent.futures.process import BrokenProcessPool
 
 from descent_fmus.synthesis.run.flights import LawFlyer
@@ -254,7 +255,7 @@ class DaskCluster(Backend):
         from descent_fmus.synthesis.run.cluster import FmuFile, FmuShipment, start_local_cluster
         self.workers = workers
         self.cluster = None
-        self.plugin = FmuShipment([FmuFile.read(f) for f in self.fmus])
+        self.plugin = FmuShipment(_shipment(problem, self.fmus, FmuFile.read))
         if address == "local":
             self.cluster, self.client = start_local_cluster(workers)
         else:
@@ -303,6 +304,24 @@ class DaskCluster(Backend):
         cluster, self.cluster = self.cluster, None
         if cluster is not None:
             cluster.close()
+
+
+def flight_path(problem, fmus) -> str:
+    """The closed-loop path the problem's runner takes with these FMUs, in one word
+    (``native-container``, ``native-master``, ``container``, ``master``)."""
+    return problem.runner.choose(problem.wiring, *fmus, record=problem.record)[0]
+
+
+def _shipment(problem, fmus, read) -> list:
+    """The files a Dask worker needs: the plant and the controller, and their native twins
+    (``native/<identifier>.fmu``) where the runner flies them, so that the workers take the
+    path the client would."""
+    files = [read(f) for f in fmus]
+    if flight_path(problem, fmus).startswith("native"):
+        from descent_fmus.synthesis.fmi.native_loop import NATIVE_DIR, native_fmus
+        files += [read(t, f"{NATIVE_DIR}/{Path(t).name}")
+                  for t in native_fmus(problem.wiring, *fmus)]
+    return files
 
 
 def make_backend(problem, fmus, workers: int = 1, scheduler: str | None = None,

@@ -2,10 +2,12 @@
 
 A Dask worker may run on another host, in a container or under a batch system: it has the
 installed ``descent-fmus`` package and nothing of the client's disk.  The client therefore reads
-the two FMU files once and registers a :class:`FmuShipment` worker plugin carrying their bytes;
-the scheduler hands the plugin to every worker, present and joining later, and each worker
-writes the files once into its own local directory (``worker.local_directory``), under their
-content hash.  A task names the FMUs by (file name, hash) only.
+the two FMU files once (and their native twins, ``native/<identifier>.fmu``, where they are
+built) and registers a :class:`FmuShipment` worker plugin carrying their bytes; the scheduler
+hands the plugin to every worker, present and joining later, and each worker writes the files
+once into its own local directory (``worker.local_directory``), in a folder named by the hash of
+their contents, laid out as on the client (so a worker flies the native path where the client
+would).  A task names the shipment only.
 
 Worker loss costs nothing: the scheduler re-runs a lost task elsewhere (the evaluator also retries
 a failed chunk once).  A joining worker receives the plugin when it registers and then takes
@@ -30,41 +32,33 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 from descent_fmus.synthesis.paths import FMUNotFoundError, require_fmu
 
-__all__ = ["FmuFile", "FmuShipment", "shipped_path", "start_local_cluster", "fly_shipped",
-           "CACHE_DIR"]
+__all__ = ["FmuFile", "FmuShipment", "start_local_cluster", "fly_shipped", "CACHE_DIR"]
 
-#: Folder inside a worker's local directory holding shipped FMUs (``<hash>/<file name>``).
+#: Folder inside a worker's local directory holding shipped FMUs
+#: (``<hash of the shipment>/<file name>``, ``.../native/<file name>``).
 CACHE_DIR = "descent-fmus-fmus"
 
 
 @dataclass(frozen=True)
 class FmuFile:
-    """One FMU file as bytes, named by its file name and the SHA-256 of its content."""
+    """One FMU file as bytes, named by its path in the shipment (``Reentry.fmu``,
+    ``native/Reentry.fmu``) and the SHA-256 of its content."""
 
     name: str
     digest: str
     data: bytes
 
     @classmethod
-    def read(cls, path) -> "FmuFile":
+    def read(cls, path, name: str | None = None) -> "FmuFile":
         path = require_fmu(path)
         data = path.read_bytes()
-        return cls(path.name, hashlib.sha256(data).hexdigest(), data)
-
-    @property
-    def ref(self) -> tuple:
-        """What a task carries: (file name, hash)."""
-        return (self.name, self.digest)
+        return cls(name or path.name, hashlib.sha256(data).hexdigest(), data)
 
 
-def _cache_path(base, ref) -> Path:
-    name, digest = ref
-    return Path(base) / CACHE_DIR / digest / name
-
-
-def materialise(f: FmuFile, base) -> Path:
-    """Write ``f`` under ``base`` once (atomically; an existing file of that hash is kept)."""
-    path = _cache_path(base, f.ref)
+def materialise(f: FmuFile, folder) -> Path:
+    """Write ``f`` as ``folder/f.name`` once (atomically; a file of that size is kept: the
+    folder is named by the hash of the whole shipment)."""
+    path = Path(folder) / f.name
     if path.is_file() and path.stat().st_size == len(f.data):
         return path
     path.parent.mkdir(parents=True, exist_ok=True)
@@ -77,18 +71,27 @@ def materialise(f: FmuFile, base) -> Path:
 class FmuShipment(WorkerPlugin):
     """Worker plugin writing a run's FMU files into each worker's local directory.
 
-    One plugin per evaluator (the run unregisters it when it ends, so that a long-lived
-    scheduler does not collect them); the files are kept by content hash, so a worker that
-    already has them (another run, a resumed run) writes nothing.
+    ``files`` are the problem's plant and controller, then any other files of the shipment
+    (their native twins, named ``native/<file name>``).  One plugin per evaluator (the run
+    unregisters it when it ends, so that a long-lived scheduler does not collect them); the
+    files are kept in a folder named by the hash of their contents, so a worker that already
+    has them (another run, a resumed run) writes nothing.
     """
 
     def __init__(self, files):
         self.files = tuple(files)
-        digest = hashlib.sha256("".join(f.digest for f in self.files).encode()).hexdigest()
+        names = [f.name for f in self.files]
+        if len(set(names)) != len(names):
+            raise ValueError(f"a shipment names each file once, got {names}")
+        digest = hashlib.sha256("".join(f"{f.name}:{f.digest};" for f in self.files)
+                                .encode()).hexdigest()
+        self.digest = digest
         self.name = f"descent-fmus-{digest[:16]}-{uuid.uuid4().hex[:8]}"
 
     def setup(self, worker):
-        self.paths = tuple(str(materialise(f, worker.local_directory)) for f in self.files)
+        folder = Path(worker.local_directory) / CACHE_DIR / self.digest
+        written = [materialise(f, folder) for f in self.files]
+        self.paths = tuple(str(p) for p in written[:2])
         self.flyers = {}
 
     def teardown(self, worker):
@@ -113,17 +116,6 @@ def fly_shipped(problem, plugin_name: str, laws):
     """Dask task: fly ``laws`` with the FMUs the plugin ``plugin_name`` shipped to this worker;
     ``(results, compute seconds)`` (per-law failures are results)."""
     return get_worker().plugins[plugin_name].flyer(problem).fly_timed(laws)
-
-
-def shipped_path(ref) -> Path:
-    """Path of a shipped FMU in this worker's local directory (FMUNotFoundError if absent)."""
-    worker = get_worker()
-    path = _cache_path(worker.local_directory, ref)
-    if not path.is_file():
-        raise FMUNotFoundError(f"FMU {ref[0]} (sha256 {ref[1][:12]}...) was not shipped to "
-                               f"Dask worker {worker.address}: the FmuShipment plugin did not "
-                               f"run there")
-    return path
 
 
 def start_local_cluster(workers: int):

@@ -35,7 +35,7 @@ import numpy as np
 from descent_fmus.synthesis.paths import require_fmu
 from descent_fmus.synthesis.problems.contract import SynthesisProblem
 from descent_fmus.synthesis.run.backends import (Backend, SchedulerError, chunk_size,
-                                                 make_backend)
+                                                 flight_path, make_backend)
 from descent_fmus.synthesis.run.signals import check_stop
 
 __all__ = ["Evaluator", "Evaluation", "SchedulerError", "SystematicFailure", "chunk_size",
@@ -138,6 +138,9 @@ class Evaluator:
         self.fmus = tuple(str(require_fmu(f).resolve()) for f in problem.fmu_paths(fmu_dir))
         self.backend = backend or make_backend(problem, self.fmus, workers, scheduler,
                                                connect_timeout)
+        #: the closed-loop path the flights take, in one word (``native-container``: the
+        #: native twins of the FMUs in fmpy's container FMU, one call per flight)
+        self.path = flight_path(problem, self.fmus)
         self.cache: OrderedDict = OrderedDict()     # fingerprint -> Outcome, recent last
         self.behaviour: OrderedDict = OrderedDict()  # behaviour key -> fingerprint flown
         self.equivalent = 0                          # laws not flown: equivalent to one flown

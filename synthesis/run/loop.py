@@ -277,6 +277,8 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
                  else f"connecting to the Dask scheduler at {scheduler}")
     evaluator = Evaluator(problem, fmu_dir, workers=workers, scheduler=scheduler,
                           fail_loudly=True)
+    announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
+             f"{'worker' if evaluator.workers == 1 else 'workers'})")
     if st:
         evaluator.restore_flown(folder.flown(sim0))
     checkpoints = _Checkpoints(folder, evaluator, curve)
@@ -371,6 +373,7 @@ def _run_fields(loop: RunLoop, evaluator, elapsed: float, method: str, out, curv
             "flights": loop.flights, "failures": evaluator.failures,
             "first_failure": evaluator.first_error,
             "evaluations_per_second": evaluator.simulated / max(elapsed, 1e-9),
+            "flight_path": evaluator.path,
             "out": str(out), "evaluations": m.evaluations, "generations": m.generation,
             "curve": curve, "checkpoints": checkpoints,
             **({"restarts": m.restarts} if hasattr(m, "restarts") else {})}
