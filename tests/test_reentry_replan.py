@@ -113,3 +113,35 @@ def test_load_oracle_equals_a_direct_open_loop_optimisation(change):
     assert direct.miss < 1.0
     assert load_oracle(p) == pytest.approx(direct.J1, rel=1e-4)
     assert math.isfinite(direct.J1)
+
+
+def test_error_families_are_stratified_and_disjoint_from_the_synthesis_seed():
+    from descent_fmus.synthesis.systems.reentry.error_families import FAMILIES, family_samples
+    for name in FAMILIES:
+        held = family_samples(name, 40, 7)
+        # a Latin hypercube: every parameter has one value in each of the 40 strata of its box
+        box = FAMILIES[name].box(P0)
+        for iv in box.intervals:
+            lo, hi = iv.value(-1.0), iv.value(1.0)
+            vals = [getattr(s.plant, iv.name) if iv.name in asdict(s.plant) else s.sensing[iv.name]
+                    for s in held]
+            strata = sorted(int((v - lo) / (hi - lo) * 40) for v in vals)
+            assert strata == list(range(40)), (name, iv.name)
+        synth = {s.key() for s in family_samples(name, 40, 1)}
+        assert not synth & {s.key() for s in held}
+    assert any(s.sensing.get("noise", 0) > 0 for s in family_samples("accel", 10, 7))
+
+
+def test_set_problem_options_draw_the_set_from_the_error_families():
+    from descent_fmus.synthesis.registry import get_problem
+    p = get_problem("reentry-guided")
+    q = p.with_option("errors", "spec,scale-height").with_option("samples", "201")
+    assert len(q.initial_states) == 201 and q.initial_states[0] == asdict(P0)
+    lams = [s["lam"] for s in q.initial_states[1:]]
+    assert sum(v == P0.lam for v in lams) == 100           # spec: the model's scale height
+    assert sum(v != P0.lam for v in lams) == 100           # scale-height: lam +-5 %
+    assert q.with_option("statistic", "p90").objectives.errors == ("spec", "scale-height")
+    with pytest.raises(ValueError, match="unknown error family"):
+        p.with_option("errors", "weather")
+    with pytest.raises(ValueError, match="samples must be"):
+        p.with_option("samples", "3")

@@ -33,7 +33,8 @@ from descent_fmus.synthesis.systems.reentry.objectives import (DIVERGED_J1, J1_L
                                                                robust_objectives)
 from descent_fmus.synthesis.systems.reentry.reports import (GuidedReport, ReentryReport,
                                                             SensedReport)
-from descent_fmus.synthesis.systems.reentry.sample_set import (RACE_OFFSET, RACE_SIZES,
+from descent_fmus.synthesis.systems.reentry.sample_set import (ERRORS_OPTION, RACE_OFFSET,
+                                                               RACE_SIZES, SAMPLES_OPTION,
                                                                STATISTIC_OPTION,
                                                                SYNTHESIS_SAMPLES, SYNTHESIS_SEED,
                                                                RobustObjectives, proceed,
@@ -166,7 +167,7 @@ def set_problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
                   objective_labels=labels, q_bits=SCALED_Q_BITS, report=SensedReport(),
                   source=f"system reentry (set: {samples} samples, seed {seed}, "
                          f"{statistic_name})",
-                  target=target, options=(STATISTIC_OPTION,))
+                  target=target, options=(STATISTIC_OPTION, ERRORS_OPTION, SAMPLES_OPTION))
     return (
         SynthesisProblem(
             name="reentry-sensed", wiring=SENSED_WIRING, basic_law=sensed_basic_law(3),

@@ -27,7 +27,8 @@ from descent_fmus.synthesis.systems.reentry.objectives import (DIVERGED_J1, ON_T
 
 __all__ = ["SYNTHESIS_SAMPLES", "SYNTHESIS_SEED", "RACE_SIZES", "RACE_NOMINAL_MISS",
            "RACE_STAGE_MISS", "MISS_CAP", "RACE_OFFSET", "STATISTICS", "statistic",
-           "synthesis_set", "proceed", "RobustObjectives", "with_statistic", "STATISTIC_OPTION"]
+           "synthesis_set", "family_set", "proceed", "RobustObjectives", "with_statistic",
+           "STATISTIC_OPTION", "ERRORS_OPTION", "SAMPLES_OPTION"]
 
 #: The synthesis set [choice]: the nominal flight + 15 uniform samples of the dispersion set,
 #: seed 1 (the held-out study draws other uniform samples, seed 7, without the nominal point).
@@ -94,6 +95,8 @@ class RobustObjectives:
 
     statistic: str = "mean"
     samples: int = SYNTHESIS_SAMPLES
+    #: model-error families of the set (empty: the uniform dispersion set of synthesis_set)
+    errors: tuple = ()
 
     def __post_init__(self):
         statistic(self.statistic)
@@ -127,3 +130,68 @@ def with_statistic(problem, name: str):
 #: ``synthesize --option statistic=NAME`` (or ``--statistic NAME``) of the robust problems.
 STATISTIC_OPTION = ProblemOption("statistic", "statistic of the miss over the sample set: "
                                  + ", ".join(STATISTICS), with_statistic)
+
+
+def family_set(families, samples: int, seed: int = SYNTHESIS_SEED,
+               base: ReentryParams = ReentryParams()) -> list:
+    """The nominal flight, then ``samples - 1`` stratified samples shared out over the
+    model-error ``families`` (a Latin hypercube of each, seeded; the plant's parameters only:
+    the sensing errors of a family stay with the held-out study)."""
+    from descent_fmus.synthesis.systems.reentry.error_families import family_samples
+    if samples < 2:
+        raise ValueError(f"a set of error families needs >= 2 samples, got {samples}")
+    rest, out = samples - 1, [base]
+    for k, name in enumerate(families):
+        n = rest // len(families) + (1 if k < rest % len(families) else 0)
+        if n:
+            out += [s.plant for s in family_samples(name, n, seed, base)]
+    return out
+
+
+def _with_set(problem, objectives):
+    """``problem`` judged on the set its ``objectives`` name (errors, samples)."""
+    from descent_fmus.synthesis.systems.reentry.wiring import plant_values
+    if objectives.errors:
+        params = family_set(objectives.errors, objectives.samples)
+        what = f"{objectives.samples} samples of {'+'.join(objectives.errors)}"
+    else:
+        params = synthesis_set(objectives.samples)
+        what = f"{objectives.samples} samples"
+    states = tuple(plant_values(p) for p in params)
+    return problem.with_(objectives=objectives, initial_states=states,
+                         source=f"{problem.source}, set {what}")
+
+
+def with_errors(problem, value: str):
+    """``problem`` judged on stratified samples of the model-error families ``value``
+    (comma-separated names of error_families.FAMILIES)."""
+    from dataclasses import replace
+
+    from descent_fmus.synthesis.systems.reentry.error_families import family
+    names = tuple(v.strip() for v in value.split(",") if v.strip())
+    if not names:
+        raise ValueError("errors needs at least one family name")
+    for n in names:
+        family(n)                      # ValueError naming the choices
+    return _with_set(problem, replace(problem.objectives, errors=names))
+
+
+def with_samples(problem, value: str):
+    """``problem`` judged on a set of ``value`` flights (the nominal one included)."""
+    from dataclasses import replace
+    try:
+        n = int(value)
+    except ValueError:
+        raise ValueError(f"samples must be an integer, got {value!r}") from None
+    if n < max(RACE_SIZES) + 1:
+        raise ValueError(f"samples must be >= {max(RACE_SIZES) + 1}, got {n}")
+    return _with_set(problem, replace(problem.objectives, samples=n))
+
+
+#: ``synthesize --option errors=FAMILY[,FAMILY]`` and ``--option samples=N`` of the set
+#: problems: the set drawn from the model-error families, its size.
+ERRORS_OPTION = ProblemOption("errors", "model-error families of the sample set (comma-"
+                              "separated: spec, scale-height, entry, all; stratified)",
+                              with_errors)
+SAMPLES_OPTION = ProblemOption("samples", "flights of the sample set, the nominal one included",
+                               with_samples)
