@@ -98,6 +98,14 @@ def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):
     assert (tmp_path / "full" / "pareto.csv").read_text() == \
         (tmp_path / "part" / "pareto.csv").read_text()
     assert done["generations"] == full["generations"] == 6
+    # a run folder whose logs are shorter than its checkpoint says is refused in one line
+    # (nothing resumed from a half): the flown fingerprints, then the outcomes by behaviour
+    for name in ("behaviour.jsonl", "flown.bin"):
+        log = tmp_path / "part" / name
+        assert log.stat().st_size > 0, name
+        log.write_bytes(log.read_bytes()[:-3])
+        with pytest.raises(RunDirError, match=f"{name}.*run folder was altered"):
+            _run(tmp_path / "part", fmu_dir, export=False, resume=True)
 
 
 @pytest.mark.parametrize("budget", [("--generations", "10"),

@@ -13,8 +13,9 @@ business (:mod:`synthesis.run.backends`: in-process, local processes, Dask); the
   differently, as the GA's variations often make -- takes that law's outcome without a flight,
   as machine-learning-control toolboxes do;
   a law flown before is never counted as a new flight again, so a flight budget counts distinct
-  laws, and a resumed run, which starts with an empty cache, counts exactly as an uninterrupted
-  one: the fingerprints of the flown laws are part of the run's checkpoint);
+  laws, and a resumed run, which starts with an empty cache, counts and judges exactly as an
+  uninterrupted one: the fingerprints of the flown laws and the outcomes by behaviour are part
+  of the run's checkpoint);
 * a failing candidate (an FMU error, a worker that dies) is retried once, then given the
   problem's penalty -- never a crash, never a NaN;
 * a failure that hits a whole batch is no candidate's fault (a broken FMU, a wrong wiring,
@@ -142,7 +143,8 @@ class Evaluator:
         #: native twins of the FMUs in fmpy's container FMU, one call per flight)
         self.path = flight_path(problem, self.fmus)
         self.cache: OrderedDict = OrderedDict()     # fingerprint -> Outcome, recent last
-        self.behaviour: OrderedDict = OrderedDict()  # behaviour key -> fingerprint flown
+        self.behaviour: OrderedDict = OrderedDict()  # behaviour key -> Outcome of its first flight
+        self.new_behaviour: list = []               # (key, Outcome) not yet in a checkpoint
         self.equivalent = 0                          # laws not flown: equivalent to one flown
         self._probes = _probes(problem)
         self.flown: set = set()                     # fingerprints of every law flown in the run
@@ -188,18 +190,19 @@ class Evaluator:
         todo = self._known_behaviour(todo)
         first = 0
         if todo:
-            results = self.backend.fly([law for _, law in todo])
+            results = self.backend.fly([law for _, law, _ in todo])
             retry = [i for i, (o, _) in enumerate(results) if o is None]
             if retry:   # retried once (a dead worker or a transient FMU error) ...
                 for i, r in zip(retry, self.backend.fly([todo[i][1] for i in retry])):
                     results[i] = r
             self._judge([err for o, err in results if o is None], len(todo))
-            for (k, _), (outcome, err) in zip(todo, results):
+            for (k, _, b), (outcome, err) in zip(todo, results):
                 if outcome is None:   # ... then penalised
                     self.failures += 1
                     self.first_error = self.first_error or err
                     outcome = self.problem.failed({"error": err or "unknown error"})
                 self.cache[k] = outcome
+                self._remember_behaviour(b, outcome)
                 if k not in self.flown:
                     self.flown.add(k)
                     self.new_flown.append(k)
@@ -217,32 +220,43 @@ class Evaluator:
                           first)
 
     def _known_behaviour(self, todo: list) -> list:
-        """``todo`` without the laws equivalent to a law in the cache (their outcome is taken
-        from it); each law to fly is remembered by its behaviour."""
+        """``todo`` without the laws equivalent to a law flown before (they take its outcome);
+        the behaviour keys of the laws to fly come back with them."""
         if self._probes is None:
-            return todo
+            return [(k, law, None) for k, law in todo]
         out = []
         for k, law in todo:
             b = _behaviour_key(law, self._probes)
-            known = self.behaviour.get(b)
-            if b is not None and known is not None and known in self.cache:
-                self.cache[k] = self.cache[known]
+            known = self.behaviour.get(b) if b is not None else None
+            if known is not None:
+                self.cache[k] = known
                 self.equivalent += 1
                 continue
-            if b is not None:
-                self.behaviour[b] = k
-                while len(self.behaviour) > CACHE_SIZE:
-                    self.behaviour.popitem(last=False)
-            out.append((k, law))
+            out.append((k, law, b))
         return out
 
-    def restore_flown(self, fingerprints) -> None:
-        """The laws a resumed run had flown before its checkpoint (not new flights again)."""
-        self.flown.update(fingerprints)
+    def _remember_behaviour(self, b: bytes | None, outcome) -> None:
+        """The first outcome flown with behaviour ``b`` (the last :data:`CACHE_SIZE` kept)."""
+        if b is None or b in self.behaviour:
+            return
+        self.behaviour[b] = outcome
+        self.new_behaviour.append((b, outcome))
+        while len(self.behaviour) > CACHE_SIZE:
+            self.behaviour.popitem(last=False)
 
-    def take_new_flown(self) -> list:
-        """The fingerprints flown since the last call (for the run's checkpoint)."""
-        out, self.new_flown = self.new_flown, []
+    def restore(self, fingerprints, behaviour=()) -> None:
+        """What a resumed run had flown before its checkpoint: the laws' fingerprints (not new
+        flights again) and the outcomes by behaviour (``(key, Outcome)`` in flight order)."""
+        self.flown.update(fingerprints)
+        for b, outcome in behaviour:
+            self._remember_behaviour(b, outcome)
+        self.new_behaviour = []
+
+    def take_new(self) -> tuple[list, list]:
+        """``(fingerprints, (behaviour key, Outcome) pairs)`` flown since the last call (for the
+        run's checkpoint)."""
+        out = (self.new_flown, self.new_behaviour)
+        self.new_flown, self.new_behaviour = [], []
         return out
 
     def _judge(self, errors: list, batch: int) -> None:

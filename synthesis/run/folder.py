@@ -7,19 +7,26 @@
   file and resumes from the last one;
 * ``flown.bin`` -- the 16-byte fingerprints of the laws flown so far, appended before each
   checkpoint (a resumed run counts a law flown before the stop as no new flight, as the
-  uninterrupted run would); the checkpoint's flight count says how many of them it covers.
+  uninterrupted run would); the checkpoint's flight count says how many of them it covers;
+* ``behaviour.jsonl`` -- the outcome of the first law flown with each behaviour (the evaluator's
+  equivalence test), one JSON line each, appended before each checkpoint (a resumed run gives a
+  law equivalent to one flown before the stop that law's outcome, as the uninterrupted run
+  would); the checkpoint's ``behaviour_bytes`` says how much of the file it covers.
 """
 from __future__ import annotations
 
 import json
 import os
+
+import numpy as np
 from dataclasses import asdict
 from pathlib import Path
 
 __all__ = ["RunDirError", "RunFolder", "write_json", "run_spec", "RUN_FILE", "CHECKPOINT",
-           "FLOWN"]
+           "FLOWN", "BEHAVIOUR"]
 
 RUN_FILE, CHECKPOINT, FLOWN = "run.json", "checkpoint.json", "flown.bin"
+BEHAVIOUR = "behaviour.jsonl"
 #: Bytes of a law's fingerprint (:func:`synthesis.run.evaluation.law_key`).
 FINGERPRINT = 16
 
@@ -55,6 +62,7 @@ class RunFolder:
     def __init__(self, out):
         self.path = Path(out)
         self.run_file, self.checkpoint = self.path / RUN_FILE, self.path / CHECKPOINT
+        self._behaviour_bytes = 0
 
     def open(self, spec: dict, resume: bool) -> dict | None:
         """Check the folder against ``spec`` and prepare it; the checkpoint to resume from
@@ -87,22 +95,36 @@ class RunFolder:
         write_json(self.run_file, spec)
         return None
 
-    def save(self, state: dict, new_flown=()) -> None:
-        """Append the fingerprints flown since the last checkpoint, then write the checkpoint
-        (atomically); ``state["simulated"]`` is the number of fingerprints it covers."""
-        flown = self.path / FLOWN
-        covered = state["simulated"]
-        # a stop between an append and its checkpoint leaves fingerprints the checkpoint does
-        # not cover: cut them before appending
-        if flown.exists() and flown.stat().st_size > (covered - len(new_flown)) * FINGERPRINT:
-            with open(flown, "r+b") as fh:
-                fh.truncate((covered - len(new_flown)) * FINGERPRINT)
-        if new_flown:
-            with open(flown, "ab") as fh:
-                fh.write(b"".join(new_flown))
-                fh.flush()
-                os.fsync(fh.fileno())
+    def save(self, state: dict, new_flown=(), new_behaviour=()) -> None:
+        """Append the fingerprints and behaviour outcomes flown since the last checkpoint, then
+        write the checkpoint (atomically); ``state["simulated"]`` is the number of fingerprints
+        it covers (``state["behaviour_bytes"]`` is set here)."""
+        covered = state["simulated"] - len(new_flown)
+        _append(self.path / FLOWN, covered * FINGERPRINT, b"".join(new_flown))
+        lines = "".join(json.dumps({"b": b.hex(), "f": list(o.f), "cv": o.cv,
+                                    "extras": o.extras}, default=_plain) + "\n"
+                        for b, o in new_behaviour)
+        state["behaviour_bytes"] = _append(self.path / BEHAVIOUR,
+                                           self._behaviour_bytes, lines.encode())
         write_json(self.checkpoint, state)
+        self._behaviour_bytes = state["behaviour_bytes"]
+
+    def behaviour(self, nbytes: int) -> list:
+        """The ``(behaviour key, Outcome)`` pairs of the first ``nbytes`` of
+        ``behaviour.jsonl`` (what the checkpoint covers)."""
+        from descent_fmus.synthesis.problems.contract import Outcome
+        path = self.path / BEHAVIOUR
+        data = path.read_bytes()[:nbytes] if path.exists() else b""
+        self._behaviour_bytes = nbytes
+        try:
+            if len(data) != nbytes:
+                raise ValueError("shorter than the checkpoint says")
+            rows = [json.loads(line) for line in data.decode().splitlines()]
+            return [(bytes.fromhex(r["b"]), Outcome(tuple(r["f"]), r["cv"], r["extras"]))
+                    for r in rows]
+        except (ValueError, KeyError, TypeError) as exc:
+            raise RunDirError(f"{path} does not hold what the checkpoint covers ({exc}): the "
+                              f"run folder was altered") from None
 
     def flown(self, count: int) -> list:
         """The first ``count`` fingerprints of ``flown.bin`` (what the checkpoint covers)."""
@@ -112,3 +134,26 @@ class RunFolder:
             raise RunDirError(f"{path} holds {len(data) // FINGERPRINT} flown laws, the "
                               f"checkpoint counts {count}: the run folder was altered")
         return [data[i:i + FINGERPRINT] for i in range(0, len(data), FINGERPRINT)]
+
+
+def _append(path: Path, covered: int, data: bytes) -> int:
+    """Cut ``path`` to the ``covered`` bytes a checkpoint covers (a stop between an append and
+    its checkpoint leaves bytes no checkpoint covers), append ``data`` durably; the new size."""
+    if path.exists() and path.stat().st_size > covered:
+        with open(path, "r+b") as fh:
+            fh.truncate(covered)
+    if data:
+        with open(path, "ab") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+    return covered + len(data)
+
+
+def _plain(value):
+    """JSON for the NumPy values a problem's reported extras may hold."""
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    raise TypeError(f"{type(value).__name__} is not JSON serialisable")

@@ -172,7 +172,7 @@ class _Checkpoints:
         self.folder.save({"generation": loop.method.generation,
                           "method": loop.method.state(),
                           "archive": archive_state(loop.archive), "curve": self.curve,
-                          "simulated": loop.flights}, self.evaluator.take_new_flown())
+                          "simulated": loop.flights}, *self.evaluator.take_new())
         self.t, self.mark = time.monotonic(), (loop.method.generation, loop.method.phase)
         self.written += 1
         self.seconds += time.perf_counter() - t0
@@ -280,7 +280,7 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
              f"{'worker' if evaluator.workers == 1 else 'workers'})")
     if st:
-        evaluator.restore_flown(folder.flown(sim0))
+        evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)))
     checkpoints = _Checkpoints(folder, evaluator, curve)
     bar = (_Progress(problem, method, problem.budget.flights, problem.budget.generations, sim0,
                      search.generation) if progress else None)
