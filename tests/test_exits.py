@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 import pytest
+from processes import cli, wait_empty
 
 from descent_fmus.synthesis.methods.refinement import RefineConfig
 from descent_fmus.synthesis.methods.settings import settings_of
@@ -31,24 +32,6 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
                                 reason="reads the process table from /proc")
 
 
-def _cli(*args):
-    return [sys.executable, "-m", "descent_fmus.synthesis.cli.main", *map(str, args)]
-
-
-def _group(pgid: int) -> list:
-    """Live (non-zombie) processes of process group ``pgid``."""
-    out = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            text = stat.read_text()
-        except OSError:
-            continue
-        fields = text[text.rindex(")") + 2:].split()
-        if int(fields[2]) == pgid and fields[0] != "Z":
-            out.append(int(stat.parent.name))
-    return out
-
-
 # -- sizes over their documented maxima: one line, exit 2, nothing written --------------------
 SETTINGS = [(cls, s) for cls in (Budget, GAConfig, RefineConfig) for s in settings_of(cls)
             if s.maximum is not None and s.type is int]
@@ -59,7 +42,7 @@ def test_every_size_setting_has_a_maximum_on_the_command_line(info, fmu_dir, tmp
     prefix = "refine-" if info in [s for c, s in SETTINGS if c is RefineConfig] else ""
     flag = "--" + prefix + info.name.replace("_", "-")
     out = tmp_path / "out"
-    r = subprocess.run(_cli("synthesize", "reentry", flag, info.maximum + 1, "--out", out,
+    r = subprocess.run(cli("synthesize", "reentry", flag, info.maximum + 1, "--out", out,
                             "--fmus", fmu_dir), capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 2, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and flag in r.stderr
@@ -67,7 +50,7 @@ def test_every_size_setting_has_a_maximum_on_the_command_line(info, fmu_dir, tmp
 
 
 def test_workers_have_a_maximum(fmu_dir, tmp_path):
-    r = subprocess.run(_cli("synthesize", "reentry", "--workers", MAX_WORKERS + 1, "--out",
+    r = subprocess.run(cli("synthesize", "reentry", "--workers", MAX_WORKERS + 1, "--out",
                             tmp_path / "out", "--fmus", fmu_dir),
                        capture_output=True, text=True, cwd=ROOT)
     assert r.returncode == 2 and f"<= {MAX_WORKERS}" in r.stderr
@@ -107,7 +90,7 @@ def test_every_size_in_a_problem_file_has_a_maximum(hopper, fmu_dir, tmp_path, o
     bad.write_text(text.replace(old, new, 1))
     out = tmp_path / "out"
     t0 = time.perf_counter()
-    r = subprocess.run(_cli("synthesize", "--problem", bad, "--out", out, "--fmus", fmu_dir),
+    r = subprocess.run(cli("synthesize", "--problem", bad, "--out", out, "--fmus", fmu_dir),
                        capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert r.returncode == 2, r.stderr
     assert len(r.stderr.strip().splitlines()) == 1, r.stderr
@@ -131,7 +114,7 @@ def test_a_run_larger_than_the_machine_is_refused_before_it_starts(fmu_dir):
 def _phase_run(args, phase: str, tmp_path, seconds: float = 240):
     """Start a run, wait for the line announcing ``phase`` (stderr), SIGTERM it; the time until
     its process group is empty, its exit code and what it printed."""
-    proc = subprocess.Popen(_cli("synthesize", *args), cwd=ROOT, stdout=subprocess.DEVNULL,
+    proc = subprocess.Popen(cli("synthesize", *args), cwd=ROOT, stdout=subprocess.DEVNULL,
                             stderr=subprocess.PIPE, text=True, start_new_session=True,
                             env=dict(os.environ, PYTHONUNBUFFERED="1"))
     seen = []
@@ -145,10 +128,7 @@ def _phase_run(args, phase: str, tmp_path, seconds: float = 240):
     time.sleep(0.3)                                   # well inside the phase
     t0 = time.monotonic()
     os.killpg(proc.pid, signal.SIGTERM)
-    left = _group(proc.pid)
-    while left and time.monotonic() - t0 < 10:
-        time.sleep(0.02)
-        left = _group(proc.pid)
+    left = wait_empty(proc.pid, 10.0)
     gone = time.monotonic() - t0
     rest = proc.stderr.read()
     proc.wait(10)
@@ -193,13 +173,13 @@ def test_a_run_stopped_while_refining_resumes_to_the_uninterrupted_result(fmu_di
     args = ["reentry", *SMALL, "--generations", "3", "--refine-basis", "300", "--refine-evals",
             "40", "--flights", "500", "--workers", "1", "--no-reference", "--no-export",
             "--fmus", fmu_dir]
-    ref = subprocess.run(_cli("synthesize", *args, "--out", tmp_path / "ref", "--quiet"),
+    ref = subprocess.run(cli("synthesize", *args, "--out", tmp_path / "ref", "--quiet"),
                          cwd=ROOT, capture_output=True, text=True)
     assert ref.returncode == 0, ref.stderr
     out = tmp_path / "run"
     _, left, code, err = _phase_run([*args, "--out", out], "refining parameters", tmp_path)
     assert code == 143 and not left
-    done = subprocess.run(_cli("synthesize", *args, "--out", out, "--resume", "--quiet"),
+    done = subprocess.run(cli("synthesize", *args, "--out", out, "--resume", "--quiet"),
                           cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert (out / "pareto.csv").read_text() == (tmp_path / "ref" / "pareto.csv").read_text()

@@ -18,6 +18,7 @@ import time
 from pathlib import Path
 
 import pytest
+from processes import cli, group, wait_empty
 
 ROOT = Path(__file__).resolve().parent.parent
 # the reentry problem as a problem file (the variational GA alone), a small budget
@@ -31,36 +32,8 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
                                 reason="reads the process table from /proc")
 
 
-def _cli(*args):
-    return [sys.executable, "-m", "descent_fmus.synthesis.cli.main", *map(str, args)]
-
-
-def _group(pgid: int) -> list:
-    """Live (non-zombie) processes of process group ``pgid``."""
-    out = []
-    for stat in Path("/proc").glob("[0-9]*/stat"):
-        try:
-            text = stat.read_text()
-        except OSError:
-            continue
-        fields = text[text.rindex(")") + 2:].split()     # after "pid (comm) "
-        if int(fields[2]) == pgid and fields[0] != "Z":
-            out.append(int(stat.parent.name))
-    return out
-
-
-def _wait_empty(pgid: int, seconds: float = 10.0) -> list:
-    deadline = time.time() + seconds
-    while time.time() < deadline:
-        left = _group(pgid)
-        if not left:
-            return []
-        time.sleep(0.1)
-    return _group(pgid)
-
-
 def _start_run(out: Path, fmu_dir, generations: int, *extra):
-    proc = subprocess.Popen(_cli("synthesize", *SMALL, "--generations", generations,
+    proc = subprocess.Popen(cli("synthesize", *SMALL, "--generations", generations,
                                  "--fmus", fmu_dir, "--out", out, *extra),
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=True)
@@ -82,13 +55,13 @@ def test_no_process_outlives_a_stopped_run(fmu_dir, tmp_path, sig):
     out = tmp_path / "run"
     proc = _start_run(out, fmu_dir, 40, "--workers", "2")
     pgid = proc.pid
-    assert len(_group(pgid)) >= 3                  # the CLI and its two pool workers
+    assert len(group(pgid)) >= 3                  # the CLI and its two pool workers
     if sig == signal.SIGINT:
         os.killpg(pgid, sig)                       # Ctrl-C reaches the whole group
     else:
         os.kill(proc.pid, sig)                     # a batch system signals the job's process
     _, stderr = proc.communicate(timeout=60)
-    assert _wait_empty(pgid) == [], "processes of the run survived it"
+    assert wait_empty(pgid) == [], "processes of the run survived it"
     if sig == signal.SIGKILL:
         return
     # one line: where the run stands and how to continue; exit 128 + signal number
@@ -102,7 +75,7 @@ def test_no_process_outlives_a_stopped_run(fmu_dir, tmp_path, sig):
 
 
 def test_resume_after_sigterm_reproduces_the_uninterrupted_run(fmu_dir, tmp_path):
-    ref = subprocess.run(_cli("synthesize", *SMALL, "--generations", 10,
+    ref = subprocess.run(cli("synthesize", *SMALL, "--generations", 10,
                               "--workers", 2, "--fmus", fmu_dir, "--out", tmp_path / "ref"),
                          cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert ref.returncode == 0, ref.stderr
@@ -112,7 +85,7 @@ def test_resume_after_sigterm_reproduces_the_uninterrupted_run(fmu_dir, tmp_path
     _, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 143, stderr
     assert not (out / "pareto.csv").exists()
-    res = subprocess.run(_cli("synthesize", *SMALL, "--generations", 10,
+    res = subprocess.run(cli("synthesize", *SMALL, "--generations", 10,
                               "--workers", 2, "--fmus", fmu_dir, "--out", out, "--resume",
                               "--json"), cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert res.returncode == 0, res.stderr
@@ -127,14 +100,14 @@ def test_no_process_outlives_a_run_that_fails(fmu_dir, tmp_path):
     bad = tmp_path / "bad.toml"
     bad.write_text(toml.replace("states = [ {} ]", "states = [ { m = -5.0 } ]"))
     args = [a if a != SMALL[1] else bad for a in SMALL]
-    proc = subprocess.Popen(_cli("synthesize", *args, "--generations", 3, "--workers", 2,
+    proc = subprocess.Popen(cli("synthesize", *args, "--generations", 3, "--workers", 2,
                                  "--fmus", fmu_dir, "--out", tmp_path / "run"),
                             cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, start_new_session=True)
     _, stderr = proc.communicate(timeout=300)
     assert proc.returncode == 2, stderr
     assert "parameter m must be > 0, got -5.0" in stderr and "Traceback" not in stderr
-    assert _wait_empty(proc.pid) == []
+    assert wait_empty(proc.pid) == []
 
 
 def test_dask_local_cluster_dies_with_its_run(fmu_dir, tmp_path):
@@ -142,10 +115,10 @@ def test_dask_local_cluster_dies_with_its_run(fmu_dir, tmp_path):
     # processes watch the run's process and go when it is killed
     proc = _start_run(tmp_path / "run", fmu_dir, 40, "--scheduler", "local", "--workers", "2")
     pgid = proc.pid
-    assert len(_group(pgid)) >= 3
+    assert len(group(pgid)) >= 3
     os.kill(proc.pid, signal.SIGKILL)
     proc.wait()
-    assert _wait_empty(pgid) == [], "Dask processes survived the run"
+    assert wait_empty(pgid) == [], "Dask processes survived the run"
 
 
 # -- full disks -----------------------------------------------------------------------------------
@@ -182,7 +155,7 @@ def test_export_on_a_too_small_disk_names_the_folder(fmu_dir, tmp_path):
     # 2 MB: the run and its results fit, the export of the Pareto laws with their closed loops
     # (several MB per law) does not -- checked before writing anything of it
     run = tmp_path / "mnt" / "run"
-    args = _cli("synthesize", *[a for a in SMALL if a != "--no-export"], "--export", "all",
+    args = cli("synthesize", *[a for a in SMALL if a != "--no-export"], "--export", "all",
                 "--generations", 3, "--workers", 1, "--fmus", fmu_dir, "--out", run)
     _, rc, err, checkpoint, listing = _on_small_disk(tmp_path, "2m", args)
     assert rc == 2, err
@@ -197,7 +170,7 @@ def test_export_on_a_too_small_disk_names_the_folder(fmu_dir, tmp_path):
 def test_checkpoint_on_a_full_disk_names_the_folder(fmu_dir, tmp_path):
     # 16 kB: run.json fits, the first checkpoint does not (ENOSPC in the middle of the write)
     run = tmp_path / "mnt" / "run"
-    args = _cli("synthesize", *SMALL, "--generations", 3, "--workers", 1,
+    args = cli("synthesize", *SMALL, "--generations", 3, "--workers", 1,
                 "--fmus", fmu_dir, "--out", run)
     _, rc, err, checkpoint, listing = _on_small_disk(tmp_path, "16k", args)
     assert rc == 2, err
@@ -209,7 +182,7 @@ def test_checkpoint_on_a_full_disk_names_the_folder(fmu_dir, tmp_path):
 
 # -- files only when asked -------------------------------------------------------------------------
 def test_json_commands_write_nothing(fmu_dir, tmp_path):
-    r = subprocess.run(_cli("lunar-landing", "solve", "--json"), cwd=tmp_path,
+    r = subprocess.run(cli("lunar-landing", "solve", "--json"), cwd=tmp_path,
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     json.loads(r.stdout)

@@ -20,6 +20,7 @@ import numpy as np
 from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu, readable_text
 from descent_fmus.synthesis.run.folder import write_json
 from descent_fmus.synthesis.run.guard import check_export_space
+from descent_fmus.synthesis.run.signals import check_stop
 
 __all__ = ["write_results", "export_law", "plot_front", "feasibility"]
 
@@ -159,6 +160,7 @@ def _export_laws(problem, rows, laws, what, out, fmu_dir, summary) -> None:
     stem = problem.wiring.name.removesuffix("ClosedLoop")
 
     def one(r, law):
+        check_stop()              # a stop requested: no new law is started
         return export_law(problem, law, fmu_dir, out / "laws" / str(r["k"]),
                           description=f"{problem.name} Pareto law {r['k']}",
                           law_fmu=kind, closed_loop=what.closed_loops,
@@ -166,10 +168,18 @@ def _export_laws(problem, rows, laws, what, out, fmu_dir, summary) -> None:
                           extra={"k": r["k"], "objectives": {
                               n: r[n] for n in problem.objective_names}})
 
-    # in parallel: a law's export waits mostly for the C compiler (a process of its own)
-    with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1)) as pool:
-        for r, files in zip(rows, pool.map(one, rows, laws)):
-            r.update(files)
+    # in parallel where a law's export waits mostly for the C compiler (a process of its own;
+    # a pythonfmu law FMU is Python work, which threads would only interleave); a stop (a
+    # signal, an error) cancels the laws not yet started and waits only for those under way,
+    # so that the run ends promptly
+    threads = min(4, os.cpu_count() or 1) if kind == "native" else 1
+    pool = ThreadPoolExecutor(max_workers=threads)
+    try:
+        futures = [pool.submit(one, r, law) for r, law in zip(rows, laws)]
+        for r, f in zip(rows, futures):
+            r.update(f.result())
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def plot_front(problem, rows, summary, path: Path) -> None:
