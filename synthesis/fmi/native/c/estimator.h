@@ -15,6 +15,7 @@
 #define DESCENT_ESTIMATOR_H
 
 #include <math.h>
+#include <stdio.h>
 
 #include "plant_runtime.h"
 #include "py_random.h"
@@ -83,6 +84,52 @@ static int est_commit(Estimator *e, const double *r, const int *iv, double u_nex
     in[2] = u_next;
     rc = SENSING_COMMIT(r, iv, e->st, in);
     return rc == PC_OK ? est_draw(e, r, iv) : rc;
+}
+
+/* -- an estimator inside a model: failures where the Python estimator raises --------------- */
+typedef struct {
+    Estimator e;
+    int failed;                   /* the last prepare/step failed where Python raises */
+    char msg[PC_MSG];             /* ... and why */
+} EstimatorRun;
+
+/* msg: an arithmetic error in `what` where the Python estimator raises */
+static const char *est_arithmetic(char *msg, const char *what)
+{
+    snprintf(msg, PC_MSG, "%s: an arithmetic error where the Python estimator raises "
+             "(ArithmeticError or ValueError)", what);
+    return msg;
+}
+
+/* SENSING_CHECK's verdict as a model_check message (NULL: valid), in `message` */
+static const char *est_check(const double *r, const int *iv, char *message)
+{
+    int rc = SENSING_CHECK(r, iv, message);
+    if (rc == PC_OK)
+        return NULL;
+    return rc == PC_RAISE ? message : est_arithmetic(message, "parameter check");
+}
+
+/* prepare(): a new estimator */
+static void est_run_prepare(EstimatorRun *x, const double *r, const int *iv)
+{
+    x->failed = est_start(&x->e, r, iv) != PC_OK;
+    if (x->failed)
+        est_arithmetic(x->msg, "prepare");
+}
+
+/* do_step: commit the sample with the control u of the coming step */
+static void est_run_step(EstimatorRun *x, const double *r, const int *iv, double u)
+{
+    if (!x->failed && est_commit(&x->e, r, iv, u) != PC_OK) {
+        x->failed = 1;
+        est_arithmetic(x->msg, "doStep");
+    }
+}
+
+static const char *est_run_failure(const EstimatorRun *x)
+{
+    return x != NULL && x->failed ? x->msg : NULL;
 }
 
 #endif

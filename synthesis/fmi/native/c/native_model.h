@@ -34,6 +34,17 @@ typedef struct {
 } ModelState;
 
 extern const char MODEL_GUID[];
+/* A model file defines the tables below from its model_config.h (MODEL_CONFIG_GUID, N_REAL,
+   N_INTEGER, MODEL_CONFIG_{REAL,INTEGER}_{START,KIND}) with one line after including it:
+   MODEL_TABLES(value reference of its sample_period, or -1) */
+#define MODEL_TABLES(sample_period)                                                         \
+    const char MODEL_GUID[] = MODEL_CONFIG_GUID;                                            \
+    const int MODEL_SAMPLE_PERIOD = (sample_period);                                        \
+    const int MODEL_N_REAL = N_REAL, MODEL_N_INTEGER = N_INTEGER;                           \
+    const double MODEL_REAL_START[N_REAL] = {MODEL_CONFIG_REAL_START};                      \
+    const int MODEL_INTEGER_START[N_INTEGER] = {MODEL_CONFIG_INTEGER_START};                \
+    const unsigned char MODEL_REAL_KIND[N_REAL] = {MODEL_CONFIG_REAL_KIND};                 \
+    const unsigned char MODEL_INTEGER_KIND[N_INTEGER] = {MODEL_CONFIG_INTEGER_KIND};
 /* value reference of the Real parameter sample_period of a sampled controller, or -1: with a
    period Ts > 0 the wrapper holds the outputs and ignores the inputs between samples (a
    communication step that ends Ts or more after the last sample is the model's next step) */

@@ -15,13 +15,7 @@
 #include "model_config.h"
 #include "no_controller.h"
 
-const char MODEL_GUID[] = MODEL_CONFIG_GUID;
-const int MODEL_SAMPLE_PERIOD = VR_SAMPLE;
-const int MODEL_N_REAL = N_REAL, MODEL_N_INTEGER = N_INTEGER;
-const double MODEL_REAL_START[N_REAL] = {MODEL_CONFIG_REAL_START};
-const int MODEL_INTEGER_START[N_INTEGER] = {MODEL_CONFIG_INTEGER_START};
-const unsigned char MODEL_REAL_KIND[N_REAL] = {MODEL_CONFIG_REAL_KIND};
-const unsigned char MODEL_INTEGER_KIND[N_INTEGER] = {MODEL_CONFIG_INTEGER_KIND};
+MODEL_TABLES(VR_SAMPLE)
 
 static char message[400];
 

@@ -14,41 +14,24 @@
 #include "no_controller.h"
 #include "estimator.h"
 
-const char MODEL_GUID[] = MODEL_CONFIG_GUID;
-const int MODEL_SAMPLE_PERIOD = VR_SAMPLE;
-const int MODEL_N_REAL = N_REAL, MODEL_N_INTEGER = N_INTEGER;
-const double MODEL_REAL_START[N_REAL] = {MODEL_CONFIG_REAL_START};
-const int MODEL_INTEGER_START[N_INTEGER] = {MODEL_CONFIG_INTEGER_START};
-const unsigned char MODEL_REAL_KIND[N_REAL] = {MODEL_CONFIG_REAL_KIND};
-const unsigned char MODEL_INTEGER_KIND[N_INTEGER] = {MODEL_CONFIG_INTEGER_KIND};
+MODEL_TABLES(VR_SAMPLE)
 
 typedef struct {
     NOController law;
-    Estimator e;
-    int failed;
-    char msg[PC_MSG];
+    EstimatorRun est;
 } Data;
 
 static char message[PC_MSG];
-
-static const char *arithmetic(char *msg, const char *what)
-{
-    snprintf(msg, PC_MSG, "%s: an arithmetic error where the Python estimator raises "
-             "(ArithmeticError or ValueError)", what);
-    return msg;
-}
 
 /* the generic controller's checks, then the estimator's parameters, then estimate_input (the
    order of SensedNetworkOperatorController.check_parameters) */
 const char *model_check(const ModelState *s)
 {
     const int ei = s->i[IX_ESTIMATE];
-    int rc;
     if (no_controller_check(s, &((Data *)s->data)->law, message, sizeof message) != NULL)
         return message;
-    rc = SENSING_CHECK(s->r, s->i, message);
-    if (rc != PC_OK)
-        return rc == PC_RAISE ? message : arithmetic(message, "parameter check");
+    if (est_check(s->r, s->i, message) != NULL)
+        return message;
     if (ei < 0 || ei > NO_NX_MAX) {
         snprintf(message, sizeof message, "estimate_input = %d outside 0..%d", ei, NO_NX_MAX);
         return message;
@@ -62,9 +45,7 @@ void model_prepare(ModelState *s)
 {
     Data *d = (Data *)s->data;
     no_controller_prepare(s, &d->law);
-    d->failed = est_start(&d->e, s->r, s->i) != PC_OK;
-    if (d->failed)
-        arithmetic(d->msg, "prepare");
+    est_run_prepare(&d->est, s->r, s->i);
 }
 
 void model_reset(ModelState *s)
@@ -78,7 +59,7 @@ void model_outputs(ModelState *s)
     Data *d = (Data *)s->data;
     double out[2];
     const int ei = s->i[IX_ESTIMATE];
-    if (est_estimate(&d->e, s->r, s->i, out) == PC_OK) {
+    if (est_estimate(&d->est.e, s->r, s->i, out) == PC_OK) {
         s->r[VR_Y3] = out[0];
         s->r[VR_FACTOR] = out[1];
         if (ei > 0 && ei <= NO_NX_MAX)
@@ -90,17 +71,13 @@ void model_outputs(ModelState *s)
 /* do_step: commit the sample with the law's output u[1] */
 void model_step(ModelState *s, double t, double h)
 {
-    Data *d = (Data *)s->data;
     (void)t;
     (void)h;
-    if (!d->failed && est_commit(&d->e, s->r, s->i, s->r[VR_U]) != PC_OK) {
-        d->failed = 1;
-        arithmetic(d->msg, "doStep");
-    }
+    est_run_step(&((Data *)s->data)->est, s->r, s->i, s->r[VR_U]);
 }
 
 const char *model_failure(const ModelState *s)
 {
     const Data *d = (const Data *)s->data;
-    return d != NULL && d->failed ? d->msg : NULL;
+    return d != NULL ? est_run_failure(&d->est) : NULL;
 }
