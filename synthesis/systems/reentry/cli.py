@@ -152,9 +152,6 @@ def run_bound(args) -> int:
 def run_robustness(args) -> int:
     from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
     from descent_fmus.synthesis.systems.reentry.bound import Program
-    from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
-                                                                      robust_study, table_lines)
-
     from descent_fmus.synthesis.systems.reentry.guidance import reads_correction
     from descent_fmus.synthesis.systems.reentry.laws import as_guided
 
@@ -191,10 +188,18 @@ def run_robustness(args) -> int:
                 raise CliError(f"cannot read {path}: {exc}") from None
     if args.errors:
         return _run_families(args, laws)
+    from descent_fmus.synthesis.systems.reentry.robust_study import robust_study
     scenarios = ("default", "second") if args.scenario == "both" else (args.scenario,)
     study = robust_study(laws, args.samples, args.seed, fmu_folder(args), scenarios,
                          programs=programs, npc=not args.no_npc, oracle=not args.no_oracle,
                          noise=args.noise, bias=args.bias)
+    return _emit_study(args, study)
+
+
+def _emit_study(args, study) -> int:
+    """Print (or emit as JSON) a study's table and statistics, and plot it with --plot."""
+    from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
+                                                                      table_lines)
     summary = {k: v for k, v in study.items() if k != "scenarios"}
     summary["scenarios"] = {n: {"stats": sc["stats"]} for n, sc in study["scenarios"].items()}
     if args.plot:
@@ -207,8 +212,6 @@ def run_robustness(args) -> int:
 def _run_families(args, laws) -> int:
     """``reentry robustness --errors FAMILY...``: each family's held-out set (family_study)."""
     from descent_fmus.synthesis.systems.reentry.family_study import family_study
-    from descent_fmus.synthesis.systems.reentry.robust_study import (plot_robust_study,
-                                                                      table_lines)
     bad = [f for f in args.errors if f not in FAMILIES]
     if bad:
         raise CliError(f"unknown error family {bad[0]!r}; choose from {', '.join(FAMILIES)}")
@@ -217,10 +220,4 @@ def _run_families(args, laws) -> int:
     study = family_study(laws, args.errors, args.samples, args.seed, fmu_folder(args),
                          npc=not args.no_npc, oracle=not args.no_oracle,
                          load_oracle=args.load_oracle)
-    summary = {k: v for k, v in study.items() if k != "scenarios"}
-    summary["scenarios"] = {n: {"stats": sc["stats"]} for n, sc in study["scenarios"].items()}
-    if args.plot:
-        plot_robust_study(study, args.plot)
-        summary["plot"] = str(args.plot)
-    emit(args, summary, "\n".join(table_lines(study)))
-    return 0
+    return _emit_study(args, study)

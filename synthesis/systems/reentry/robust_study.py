@@ -234,10 +234,10 @@ def table_lines(study: dict) -> list:
         lines += ["", f"scenario {name} (miss in km)", head]
         for g, s in sc["stats"].items():
             lines.append(
-                f"{g[:34]:34s} {_fmt(s['miss_median'], True):>7s} "
-                f"{_fmt(s['miss_p90'], True):>7s} {_fmt(s['miss_p95'], True):>7s} "
-                f"{_fmt(s['miss_max'], True):>7s} {_fmt(s['within_1km'], pct=True):>5s} "
-                f"{_fmt(s['within_5km'], pct=True):>5s} {_fmt(s.get('J1_median')):>7s} "
+                f"{g[:34]:34s} {_fmt(s.get('miss_median'), True):>7s} "
+                f"{_fmt(s.get('miss_p90'), True):>7s} {_fmt(s.get('miss_p95'), True):>7s} "
+                f"{_fmt(s.get('miss_max'), True):>7s} {_fmt(s.get('within_1km'), pct=True):>5s} "
+                f"{_fmt(s.get('within_5km'), pct=True):>5s} {_fmt(s.get('J1_median')):>7s} "
                 f"{_fmt(s.get('J1_max')):>7s} {_fmt(s.get('landed'), pct=True):>6s} "
                 f"{_fmt(s.get('miss_nominal'), True):>8s}")
     return lines
@@ -272,7 +272,8 @@ def plot_robust_study(study: dict, path) -> Path:
         j1 = [np.array([r["J1"] for r in sc["results"][g]]) for g in names]
         load = [r["J1_load"] for r in sc.get("limits", ()) if "J1_load" in r]
         if load:                            # the physical limit beside the options
-            names.append("load oracle (min J1 at zero miss)")
+            names.append("load oracle (min J1 at zero miss)"
+                         + ("" if len(load) == len(sc["params"]) else f", {len(load)} samples"))
             j1.append(np.array(load))
         row[1].boxplot(j1, tick_labels=[textwrap.fill(g, 14) for g in names])
         row[1].set(ylabel="J1 (max load)", title=f"{name} {what}: J1")
