@@ -21,7 +21,8 @@ from __future__ import annotations
 import math
 from dataclasses import MISSING, dataclass, field, fields, replace
 
-__all__ = ["ParameterError", "require_finite", "require_positive", "param", "Params",
+__all__ = ["ParameterError", "require_finite", "require_positive", "require_nonnegative",
+           "param", "Params",
            "unit_of", "description_of", "parameter_table"]
 
 
@@ -48,8 +49,19 @@ def require_positive(name: str, value: float) -> float:
     return value
 
 
-def param(default, unit: str, description: str, *, positive: bool = False):
-    """A dataclass field with its unit and description (and, optionally, a > 0 check).
+def require_nonnegative(name: str, value: float, unit: str = "") -> float:
+    """Return ``float(value)`` or raise :class:`ParameterError` unless it is finite and >= 0
+    (the message names the unit, if one other than ``"1"`` is given)."""
+    value = require_finite(name, value)
+    if value < 0.0:
+        unit = f" {unit}" if unit and unit != "1" else ""
+        raise ParameterError(f"parameter {name} must be >= 0{unit}, got {value!r}")
+    return value
+
+
+def param(default, unit: str, description: str, *, positive: bool = False,
+          nonnegative: bool = False):
+    """A dataclass field with its unit and description (and, optionally, a > 0 or >= 0 check).
 
     Parameters
     ----------
@@ -61,9 +73,11 @@ def param(default, unit: str, description: str, *, positive: bool = False):
         What the parameter is, without the unit (it is appended in brackets where shown).
     positive : bool
         :meth:`Params.validate` requires the value to be > 0.
+    nonnegative : bool
+        :meth:`Params.validate` requires the value to be >= 0.
     """
     return field(default=default, metadata={"unit": unit, "description": description,
-                                            "positive": positive})
+                                            "positive": positive, "nonnegative": nonnegative})
 
 
 def unit_of(cls, name: str) -> str:
@@ -98,7 +112,8 @@ def parameter_table(cls) -> list[tuple[str, object, str, str]]:
 
 @dataclass(frozen=True)
 class Params:
-    """Base of the parameter dataclasses: finite values, the ``positive`` fields > 0.
+    """Base of the parameter dataclasses: finite values, the ``positive`` fields > 0, the
+    ``nonnegative`` fields >= 0.
 
     Subclasses add their own checks in :meth:`check` (called by :meth:`validate` after the
     generic ones) and raise :class:`ParameterError` naming the parameter.
@@ -115,6 +130,8 @@ class Params:
                 require_finite(f.name, value)
             if f.metadata.get("positive"):
                 require_positive(f.name, value)
+            if f.metadata.get("nonnegative"):
+                require_nonnegative(f.name, value, f.metadata.get("unit", ""))
         self.check()
         return self
 

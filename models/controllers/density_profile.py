@@ -28,7 +28,7 @@ import math
 from dataclasses import dataclass
 
 from descent_fmus.models.controllers.drag_estimator import DragEstimatorParams, DragFactorEstimator
-from descent_fmus.models.params import ParameterError, param
+from descent_fmus.models.params import param
 from descent_fmus.models.reentry import ReentryParams
 
 __all__ = ["ProfileParams", "ProfileEstimator", "Profile", "H_REF", "H_UNIT"]
@@ -49,15 +49,10 @@ class ProfileParams(DragEstimatorParams):
     accel_sigma: float = param(0.05, "m/s2", "accelerometer noise the profile fit assumes "
                                "(its weights and its uncertainty)", positive=True)
     scale_prior: float = param(0.05, "1", "prior standard deviation of the relative error of "
-                               "the density scale height (0 = a constant factor only)")
+                               "the density scale height (0 = a constant factor only)",
+                               nonnegative=True)
     bias_prior: float = param(0.02, "m/s2", "prior standard deviation of the accelerometer bias "
-                              "(0 = no bias term)")
-
-    def check(self) -> None:
-        super().check()
-        for name in ("scale_prior", "bias_prior"):
-            if getattr(self, name) < 0.0:
-                raise ParameterError(f"parameter {name} must be >= 0, got {getattr(self, name)}")
+                              "(0 = no bias term)", nonnegative=True)
 
 
 @dataclass(frozen=True)

@@ -54,13 +54,9 @@ class DragEstimatorParams(Params):
     threshold: float = param(0.005, "1", "nominal-model drag [g] above which a sample enters "
                              "the estimate", positive=True)
     noise: float = param(0.0, "m/s2", "standard deviation of the simulated accelerometer "
-                         "white noise (0 = off)")
+                         "white noise (0 = off)", nonnegative=True)
     bias: float = param(0.0, "m/s2", "simulated accelerometer bias (0 = off)")
     noise_seed: int = param(0, "1", "seed of the accelerometer noise")
-
-    def check(self) -> None:
-        if self.noise < 0.0:
-            raise ParameterError(f"parameter noise must be >= 0 m/s2, got {self.noise}")
 
 
 class DragFactorEstimator:
