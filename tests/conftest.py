@@ -1,4 +1,4 @@
-"""Shared fixtures: the built FMUs.
+"""Shared fixtures: the built FMUs, the tutorial's hopper plant.
 
 ``fmu_dir`` is ``$DESCENT_FMUS_DIR`` if set, else ``fmus/`` of the checkout; the FMUs are built
 there once per session if any registered one is missing (CI builds them before pytest).
@@ -28,6 +28,20 @@ def fmu_dir() -> Path:
         return d
     if not all((d / f).is_file() for f in _expected_fmus()):
         subprocess.run([sys.executable, str(ROOT / "build_fmus.py"), "--out", str(d)], check=True)
+    return d
+
+
+@pytest.fixture(scope="session")
+def hopper_dir(tmp_path_factory) -> Path:
+    """The tutorial's plant (``docs/tutorial/hopper.py``) built by pythonfmu, as a user would,
+    beside a copy of its problem file ``hopper.toml`` -- once per session (tests write their
+    variants elsewhere or under other names)."""
+    import shutil
+    tutorial = ROOT / "docs" / "tutorial"
+    d = tmp_path_factory.mktemp("hopper")
+    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f",
+                    str(tutorial / "hopper.py"), "-d", str(d)], check=True, capture_output=True)
+    shutil.copy(tutorial / "hopper.toml", d / "hopper.toml")
     return d
 
 

@@ -58,12 +58,9 @@ def test_workers_have_a_maximum(fmu_dir, tmp_path):
 
 
 @pytest.fixture(scope="module")
-def hopper(tmp_path_factory):
-    """The tutorial's plant, built by pythonfmu as a user would, and its problem file."""
-    d = tmp_path_factory.mktemp("hopper")
-    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f",
-                    str(TUTORIAL / "hopper.py"), "-d", str(d)], check=True, capture_output=True)
-    return d, (TUTORIAL / "hopper.toml").read_text()
+def hopper(hopper_dir):
+    """The tutorial's plant and its problem file's text."""
+    return hopper_dir, (hopper_dir / "hopper.toml").read_text()
 
 
 FILE_SIZES = [

@@ -11,8 +11,6 @@ from __future__ import annotations
 import math
 import pickle
 import shutil
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -305,17 +303,6 @@ def test_expressions_pickle():
 
 
 # -- problem files: checking, recording and a flight through the FMUs --------------------------
-@pytest.fixture(scope="module")
-def hopper_dir(tmp_path_factory):
-    """The tutorial's plant built by pythonfmu (as tests/test_problem_file.py does)."""
-    d = tmp_path_factory.mktemp("hopper")
-    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f",
-                    str(TUTORIAL / "hopper.py"), "-d", str(d)], check=True,
-                   capture_output=True)
-    shutil.copy(TUTORIAL / "hopper.toml", d / "hopper.toml")
-    return d
-
-
 def _hopper_with(hopper_dir, tmp_path, *flights):
     """The tutorial file with its objectives' expressions replaced by ``flights``."""
     text = (hopper_dir / "hopper.toml").read_text()

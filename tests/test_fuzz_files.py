@@ -11,9 +11,6 @@ LawFileError, one line naming the file).
 from __future__ import annotations
 
 import json
-import shutil
-import subprocess
-import sys
 import tracemalloc
 from pathlib import Path
 
@@ -99,12 +96,9 @@ def _load_within_limits(load):
 
 
 @pytest.fixture(scope="module")
-def hopper(tmp_path_factory):
-    d = tmp_path_factory.mktemp("fuzz")
-    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f",
-                    str(TUTORIAL / "hopper.py"), "-d", str(d)], check=True, capture_output=True)
-    shutil.copy(TUTORIAL / "hopper.toml", d / "hopper.toml")
-    return d, tomllib.loads((TUTORIAL / "hopper.toml").read_text())
+def hopper(hopper_dir):
+    """The tutorial's plant and its problem file, parsed."""
+    return hopper_dir, tomllib.loads((hopper_dir / "hopper.toml").read_text())
 
 
 def _check_problem_file(path: Path, fmu_dir):

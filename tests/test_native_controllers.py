@@ -391,7 +391,6 @@ def test_evaluator_native_path_gives_the_pythonfmu_objectives(twin_dir, fmu_dir)
     # objectives and constraint violations for 16 S1 laws, to the last bit
     from dataclasses import replace
 
-    from descent_fmus.synthesis.problems.runner import Runner
     from descent_fmus.synthesis.registry import get_problem
     from descent_fmus.synthesis.run.evaluation import Evaluator
     problem = get_problem("reentry")

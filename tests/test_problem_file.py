@@ -24,17 +24,6 @@ TUTORIAL = ROOT / "docs" / "tutorial"
 SMALL = dict(population=16, generations=3, crossovers=6, lchr=4, epoch=2)
 
 
-@pytest.fixture(scope="module")
-def hopper_dir(tmp_path_factory):
-    """The tutorial's plant built by pythonfmu, as a user would, beside a copy of its problem."""
-    d = tmp_path_factory.mktemp("hopper")
-    subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f",
-                    str(TUTORIAL / "hopper.py"), "-d", str(d)], check=True,
-                   capture_output=True)
-    shutil.copy(TUTORIAL / "hopper.toml", d / "hopper.toml")
-    return d
-
-
 def _edit(src: Path, dst: Path, old: str, new: str) -> Path:
     text = src.read_text()
     assert old in text, old
