@@ -21,11 +21,24 @@ blind and the oracle bound.  Writes
 
     python docs/make_reentry_robust_figures.py SENSED_RUN Y12_RUN [--cma CMA_RUN]
         [--guided GUIDED_RUN] [--gate 20] [--samples 200] [--seed 7] [--fmus DIR] [--programs DIR]
+
+``families`` makes the figure of the model-error families instead (:func:`families_main`): the
+committed guided law re-planned (the recommended configuration), with the load gate, plain,
+and the NPC over each family's held-out set (200 Latin-hypercube samples, seed 7), beside the
+oracle bound and the load oracle; ``docs/figures/reentry_families.png`` and ``.json``
+(``--scenario second``: the families around the second scenario's entry,
+``reentry_families_second.*``).  Each option's flights are kept in ``--out`` (resumed there),
+the limits in the cache folder.
+
+    python docs/make_reentry_robust_figures.py families [--errors spec scale-height]
+        [--samples 200] [--seed 7] [--scenario default|second] [--options replan gate20 ...]
+        [--load-oracle N] [--out DIR] [--fmus DIR]
 """
 from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import asdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -122,5 +135,92 @@ def main(argv=None):
     print("\n".join(table_lines(study)))
 
 
+#: The options of the families' figure: name -> controller parameters of the guided law (None:
+#: the NPC).  The first is the recommended configuration (docs/systems/reentry.md).
+FAMILY_OPTIONS = {"replan": ("guided law, re-planned (recommended)", {"replan": 1}),
+                  "gate20": (f"guided law, load gate {GATE:g} g", {"correction_gate": GATE}),
+                  "ungated": ("guided law, one correction c", {}),
+                  "npc": ("NPC guidance", None)}
+
+
+def families_main(argv=None):
+    """The model-error families' figure (module docstring)."""
+    import sys
+
+    import numpy as np
+
+    from descent_fmus.synthesis.systems.reentry.error_families import FAMILIES, family_samples
+    from descent_fmus.synthesis.systems.reentry.family_study import oracle_stats
+    from descent_fmus.synthesis.systems.reentry.guidance import default_guided_law
+    from descent_fmus.synthesis.systems.reentry.load_oracle import set_limits
+    from descent_fmus.synthesis.systems.reentry.robust_study import (SCENARIOS, fly_law,
+                                                                      fly_npc, stats)
+    ap = argparse.ArgumentParser(description="S1 guidance over the model-error families")
+    ap.add_argument("--errors", nargs="+", default=["spec", "scale-height"], choices=FAMILIES)
+    ap.add_argument("--samples", type=int, default=200)
+    ap.add_argument("--seed", type=int, default=7)
+    ap.add_argument("--scenario", choices=tuple(SCENARIOS), default="default",
+                    help="entry conditions the families are drawn around (second: "
+                         "reentry_families_second.png and .json)")
+    ap.add_argument("--options", nargs="+", choices=tuple(FAMILY_OPTIONS),
+                    default=list(FAMILY_OPTIONS), help="guidance options flown (default all)")
+    ap.add_argument("--load-oracle", type=int, default=None, metavar="N",
+                    help="compute the load oracle of the first N samples (default all; ~30 s "
+                         "a reachable sample); the others use what the cache holds")
+    ap.add_argument("--out", type=Path, default=Path("runs/reentry-families"))
+    ap.add_argument("--fmus", type=Path, default=fmu_dir())
+    args = ap.parse_args(argv)
+    import matplotlib
+    matplotlib.use("Agg")
+    law = default_guided_law()
+    base = SCENARIOS[args.scenario]
+    args.out.mkdir(parents=True, exist_ok=True)
+    study = {"samples": args.samples, "seed": args.seed, "scenario": args.scenario,
+             "families": {}, "scenarios": {}}
+    for fam in args.errors:
+        sset = family_samples(fam, args.samples, args.seed, base)
+        study["families"][fam] = FAMILIES[fam].description
+        results = {}
+        for key in args.options:
+            label, params = FAMILY_OPTIONS[key]
+            path = args.out / f"{fam}_{args.scenario}_{args.samples}_{args.seed}_{key}.json"
+            if not path.exists():
+                rows = fly_npc(sset, args.fmus) if params is None else \
+                    fly_law(law, sset, args.fmus, guidance=params)
+                path.write_text(json.dumps(json_safe(rows)))
+                print(f"{fam}: {label} flown", file=sys.stderr)
+            results[label] = json.loads(path.read_text())
+        n_load = args.samples if args.load_oracle is None else min(args.load_oracle,
+                                                                    args.samples)
+        limits = set_limits([s.plant for s in sset[:n_load]], base=base) + \
+            set_limits([s.plant for s in sset[n_load:]], load=False, base=base)
+        sc = {"params": [asdict(s.plant) for s in sset], "results": results, "limits": limits,
+              "oracle": [r["miss"] for r in limits],
+              "stats": {n: stats(rows) for n, rows in results.items()}}
+        sc["stats"].update(oracle_stats(limits))
+        loaded = [k for k, r in enumerate(limits) if "J1_load" in r]
+        # the options' median J1 on the samples that have a load oracle, beside its median
+        sc["stats_load_subset"] = {n: float(np.median([rows[k]["J1"] for k in loaded]))
+                                   for n, rows in results.items()} if loaded else {}
+        study["scenarios"][fam if args.scenario == "default" else
+                           f"{args.scenario} scenario, {fam}"] = sc
+    stem = "reentry_families" + ("" if args.scenario == "default" else f"_{args.scenario}")
+    plot_robust_study(study, DOCS / f"{stem}.png")
+    summary = {k: v for k, v in study.items() if k != "scenarios"}
+    summary["scenarios"] = {n: {"stats": sc["stats"],
+                                "J1_median_on_load_oracle_samples": sc["stats_load_subset"]}
+                            for n, sc in study["scenarios"].items()}
+    (DOCS / f"{stem}.json").write_text(json.dumps(json_safe(summary), indent=1))
+    print("\n".join(table_lines(study)))
+    for n, sc in study["scenarios"].items():
+        computed = sum("J1_load" in r for r in sc["limits"])
+        print(f"{n}: median J1 on the {computed} samples with a load oracle: "
+              f"{sc['stats_load_subset']}")
+
+
 if __name__ == "__main__":
-    main()
+    import sys
+    if sys.argv[1:2] == ["families"]:
+        families_main(sys.argv[2:])
+    else:
+        main()
