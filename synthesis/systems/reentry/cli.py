@@ -72,8 +72,9 @@ def add_commands(sub) -> None:
                         "every cycle for the least predicted peak load at zero predicted miss)")
     r.add_argument("--errors", nargs="+", metavar="FAMILY",
                    help="model-error families to fly instead of the scenarios' uniform sets: "
-                        f"{', '.join(FAMILY_NAMES)} (a Latin-hypercube held-out set of each, the "
-                        "oracle bound and the load oracle beside every option)")
+                        f"{', '.join(FAMILY_NAMES)} (a Latin-hypercube held-out set of each "
+                        "around the --scenario's entry, the oracle bound and the load oracle "
+                        "beside every option)")
     r.add_argument("--load-oracle", type=int, default=None, metavar="N",
                    help="with --errors: compute the load oracle (least peak load at zero miss, "
                         "~30 s a sample, cached) on the first N samples only (default all)")
@@ -217,7 +218,10 @@ def _run_families(args, laws) -> int:
         raise CliError(f"unknown error family {bad[0]!r}; choose from {', '.join(FAMILIES)}")
     if args.load_oracle is not None and args.load_oracle < 0:
         raise CliError(f"--load-oracle must be >= 0, got {args.load_oracle}")
+    if args.scenario == "both":
+        raise CliError("--errors flies one scenario at a time: --scenario default or second")
+    from descent_fmus.synthesis.systems.reentry.robust_study import SCENARIOS
     study = family_study(laws, args.errors, args.samples, args.seed, fmu_folder(args),
                          npc=not args.no_npc, oracle=not args.no_oracle,
-                         load_oracle=args.load_oracle)
+                         load_oracle=args.load_oracle, base=SCENARIOS[args.scenario])
     return _emit_study(args, study)

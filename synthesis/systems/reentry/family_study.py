@@ -2,10 +2,11 @@
 FMUs, each beside its physical limits.
 
 For every family named (:mod:`.error_families`) :func:`family_study` draws its held-out set
-(Latin hypercube, ``samples`` points, ``seed``; the default scenario), flies every guidance
-option on it (the laws given -- a law with the on-board correction may come with controller
-parameters, e.g. the re-planner ``{"replan": 1}`` --, the paper's basic law, the NPC) with each
-sample's accelerometer errors simulated in the estimator, and puts beside them
+(Latin hypercube, ``samples`` points, ``seed``; around the default scenario or ``base``),
+flies every guidance option on it (the laws given -- a law with the on-board correction may
+come with controller parameters, e.g. the re-planner ``{"replan": 1}`` --, the paper's basic
+law, the NPC) with each sample's accelerometer errors simulated in the estimator, and puts
+beside them
 
 * the **oracle bound** per sample (the miss of the best constant control with the true
   parameters: no law misses less), and
@@ -23,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.systems.reentry.error_families import family, family_samples
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
 from descent_fmus.synthesis.systems.reentry.robust_study import (BASIC, NPC, ORACLE,
@@ -55,10 +57,11 @@ def oracle_stats(limits) -> dict:
 
 def family_study(laws: dict, families, samples: int, seed: int, fmu_dir, npc: bool = True,
                  oracle: bool = True, load_oracle: int | None = None, basic: bool = True,
-                 progress=None) -> dict:
+                 progress=None, base: ReentryParams = ReentryParams()) -> dict:
     """Fly every option over each family's held-out set (module docstring).  ``laws`` maps a
     name to a law or to ``(law, controller parameters)``; ``load_oracle`` = the number of
-    samples (from the first) whose load oracle is computed (None: all, 0: none).
+    samples (from the first) whose load oracle is computed (None: all, 0: none); ``base`` the
+    scenario the families are drawn around (default: the default scenario).
 
     Returns ``{"samples", "seed", "families", "scenarios": {family: {"params", "sensing",
     "results", "stats", "oracle", "limits"}}}``."""
@@ -73,7 +76,7 @@ def family_study(laws: dict, families, samples: int, seed: int, fmu_dir, npc: bo
     for name in families:
         fam = family(name)
         out["families"][name] = fam.description
-        sset = family_samples(name, samples, seed)
+        sset = family_samples(name, samples, seed, base)
         results = {}
         for n, option in options.items():
             law, guidance = _with_guidance(option)
@@ -87,8 +90,8 @@ def family_study(laws: dict, families, samples: int, seed: int, fmu_dir, npc: bo
               "stats": {n: stats(rows) for n, rows in results.items()}}
         if oracle:
             n_load = samples if load_oracle is None else min(load_oracle, samples)
-            limits = set_limits([s.plant for s in sset[:n_load]], load=True) + \
-                set_limits([s.plant for s in sset[n_load:]], load=False)
+            limits = set_limits([s.plant for s in sset[:n_load]], load=True, base=base) + \
+                set_limits([s.plant for s in sset[n_load:]], load=False, base=base)
             sc["limits"] = limits
             sc["oracle"] = [r["miss"] for r in limits]
             sc["stats"].update(oracle_stats(limits))
