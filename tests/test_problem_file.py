@@ -151,3 +151,13 @@ def test_not_toml(tmp_path):
     bad.write_text("[problem\nname = 1")
     with pytest.raises(ProblemFileError, match="not valid TOML"):
         load_problem_file(bad)
+
+
+def test_a_relative_fmu_folder_names_the_same_controller(hopper_dir, fmu_dir, monkeypatch):
+    # --fmus as typed on a command line, relative to the working directory: the generic
+    # controller is found once, not under the folder twice (fmus/fmus/...)
+    monkeypatch.chdir(Path(fmu_dir).resolve().parent)
+    rel = Path(Path(fmu_dir).resolve().name)
+    problem = load_problem_file(hopper_dir / "hopper.toml", fmu_dir=rel)
+    ctrl = problem.fmu_paths(rel)[1]
+    assert ctrl.is_file() and ctrl == (Path(fmu_dir) / "NetworkOperatorController.fmu").resolve()

@@ -248,7 +248,7 @@ def _controller_table(rd: Reader, data, plant: PlantInfo, fmu_dir) -> Controller
     if "fmu" in table:
         path = find_fmu(rd, "controller.fmu", table["fmu"], fmu_dir)
     else:
-        path = Path(fmu_dir) / "NetworkOperatorController.fmu"
+        path = (Path(fmu_dir) / "NetworkOperatorController.fmu").resolve()
         if not path.is_file():
             raise rd.error("controller.fmu", f"the generic controller {path} is not built: run "
                                              f"python build_fmus.py (or --fmus DIR)")
