@@ -298,18 +298,24 @@ def test_flights_equal_the_pythonfmu_plant(pair, name):
     assert ends >= CASES[name].get("statuses", {1}), ends
 
 
+def _refusals(fmus, case) -> list:
+    """What each of the (FMU, log) pairs logs when it refuses to start with ``case``."""
+    said = []
+    for fmu, log in fmus:
+        del log[:]
+        with pytest.raises(Exception, match="status 3"):
+            _start(fmu, case)
+        said.append(log[0].split(": ", 1)[1])
+    return said
+
+
 @pytest.mark.parametrize("name", sorted(CASES))
 def test_bad_parameters_give_the_same_error(pair, name):
-    (py, py_log), (c, c_log) = pair(name)
+    fmus = pair(name)
     for case in CASES[name]["bad"]:
-        said = []
-        for fmu, log in ((py, py_log), (c, c_log)):
-            del log[:]
-            with pytest.raises(Exception, match="status 3"):
-                _start(fmu, case)
-            said.append(log[0].split(": ", 1)[1])
+        said = _refusals(fmus, case)
         assert said[0] == said[1], case
-    _start(c, {})                                   # usable again after the errors
+    _start(fmus[1][0], {})                          # usable again after the errors
 
 
 def _variables(path) -> dict:
@@ -435,13 +441,7 @@ def test_telescope_eigenvalue_checks(pair, name, case):
     # the checks on eigenvalues (np.linalg.eigvalsh, LAPACK; the C code rotates by Jacobi)
     # reject the same tensors; the message prints the eigenvalues, NumPy's array format and
     # digits there, the C code's repr of its own: the words before them are the same
-    (py, py_log), (c, c_log) = pair(name)
-    said = []
-    for fmu, log in ((py, py_log), (c, c_log)):
-        del log[:]
-        with pytest.raises(Exception, match="status 3"):
-            _start(fmu, case)
-        said.append(log[0].split(": ", 1)[1])
+    said = _refusals(pair(name), case)
     head = [s.split("eigenvalues")[0] if "eigenvalues" in s else s.split(":")[0] for s in said]
     assert head[0] == head[1] and len(head[0]) > 20, said
 
