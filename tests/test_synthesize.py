@@ -156,7 +156,16 @@ def test_killed_cli_run_resumes(fmu_dir, tmp_path, budget):
 def test_exported_law_reproduces_its_pareto_row(fmu_dir, tmp_path):
     # the GA's numbers come from the FMUs: an exported law's closed-loop FMU, run by fmpy
     # simulate, reproduces the J1 and miss of its row in pareto.csv
+    assert REENTRY.input_scaling == "auto"
     s = _run(tmp_path / "run", fmu_dir, generations=3)
+    scaling = json.loads((tmp_path / "run" / "scaling.json").read_text())
+    # derived from the paper's basic law (written in 10 y1, 2 y2): where it acts unsaturated
+    # on the default entry, y1 > 0 and y2 < 0 (the flight's deviations from the line), with
+    # finite positive scales
+    assert REENTRY.basic().input_offset == [0.0, 0.0]
+    assert scaling["offset"][0] > 0.0 > scaling["offset"][1]
+    assert all(0 < v < 1e4 for v in scaling["scale"])
+    assert s["input_scaling"]["offset"] == scaling["offset"]
     rows = s["pareto"]
     assert rows and (tmp_path / "run" / "pareto.png").stat().st_size > 1000
     for r in rows[:3]:
@@ -167,6 +176,10 @@ def test_exported_law_reproduces_its_pareto_row(fmu_dir, tmp_path):
             assert abs(last["L"] - 1_400_000.0) == pytest.approx(r["J2"], rel=1e-9, abs=1e-6)
         law = NetworkOperator.load(Path(r["closed_loop_fmu"]).parent / "law.json")
         assert law.formula(6) == r["formula"]
+        # S1 derives its input coordinates from the basic law's flights: the run records them,
+        # and the law file (so the exported FMU, which reproduced the row above) carries them
+        assert list(law.input_offset) == pytest.approx(scaling["offset"], rel=0, abs=0)
+        assert list(law.input_scale) == pytest.approx(scaling["scale"], rel=0, abs=0)
 
 
 def test_bad_input(fmu_dir, tmp_path):
