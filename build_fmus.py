@@ -27,8 +27,7 @@ def main(argv=None) -> int:
                     help="build only these systems (default: all)")
     args = ap.parse_args(argv)
     try:
-        from descent_fmus.synthesis.fmi.compose import (build_slave, with_defaults,
-                                                        write_closed_loop)
+        from descent_fmus.synthesis.fmi.compose import build_slave, with_defaults
         from descent_fmus.synthesis.fmi.native.loops import build_native_fmus
         from descent_fmus.synthesis.fmi.native.plant_fmu import build_native_plants
         from descent_fmus.synthesis.registry import SYSTEMS, get_system
@@ -61,7 +60,7 @@ def main(argv=None) -> int:
                 ctrl = with_defaults(ctrl, out / f"{w.name}Controller.fmu",
                                      spec.controller_defaults())
                 built.append(ctrl)
-            fmu, ssp = write_closed_loop(spec, plant, ctrl, out)
+            fmu, ssp = spec.write(plant, ctrl, out)
             built.append(fmu)
             print(f"built {fmu.name} and {ssp.name}")
     # the native plants (C generated from models/), the C twins of the generic controllers, and

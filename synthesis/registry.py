@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import importlib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Callable, Mapping
 
 
@@ -55,6 +56,15 @@ class ClosedLoopSpec:
     wiring: object
     parameters: tuple = ()
     controller_defaults: Callable[[], Mapping] | None = None
+
+    def write(self, plant_fmu: Path, controller_fmu: Path, folder: Path) -> tuple:
+        """``(closed-loop FMU, SSP file)`` around these plant and controller FMUs, written into
+        ``folder`` as ``<Name>.fmu`` and ``<Name>.ssp``."""
+        from descent_fmus.synthesis.fmi.compose import closed_loop_fmu, write_ssp
+        w, folder = self.wiring, Path(folder)
+        return (closed_loop_fmu(w, plant_fmu, controller_fmu, folder / f"{w.name}.fmu",
+                                parameters=self.parameters),
+                write_ssp(w, plant_fmu, controller_fmu, folder / f"{w.name}.ssp"))
 
 
 @dataclass(frozen=True)

@@ -28,7 +28,6 @@ from descent_fmus.synthesis.fmi.closed_loop import Wiring
 from descent_fmus.synthesis.paths import require_fmu
 
 __all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp",
-           "write_closed_loop",
            "add_units", "add_status_wrapper", "refine_container"]
 
 #: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
@@ -490,13 +489,3 @@ def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path)
         z.write(controller_fmu, f"resources/{controller_fmu.name}")
     tmp.replace(dest)
     return dest
-
-
-def write_closed_loop(spec, plant_fmu: Path, controller_fmu: Path, folder: Path) -> tuple:
-    """``(closed-loop FMU, SSP file)`` of a registered closed loop (``ClosedLoopSpec``: its
-    wiring and exposed parameters) around these plant and controller FMUs, written into
-    ``folder`` as ``<Name>.fmu`` and ``<Name>.ssp``."""
-    w, folder = spec.wiring, Path(folder)
-    return (closed_loop_fmu(w, plant_fmu, controller_fmu, folder / f"{w.name}.fmu",
-                            parameters=spec.parameters),
-            write_ssp(w, plant_fmu, controller_fmu, folder / f"{w.name}.ssp"))

@@ -26,7 +26,6 @@ __all__ = ["build_native_closed_loops", "build_native_fmus"]
 def build_native_closed_loops(specs, native_dir, say=print) -> list[Path]:
     """The native closed loops of ``specs`` whose twins are in ``native_dir`` (see the module
     docstring); the paths of the FMUs written (closed loops and their own controllers)."""
-    from descent_fmus.synthesis.fmi.compose import write_closed_loop
     native_dir, built = Path(native_dir), []
     for spec in specs:
         w = spec.wiring
@@ -42,7 +41,7 @@ def build_native_closed_loops(specs, native_dir, say=print) -> list[Path]:
             ctrl = NATIVE_CONTROLLERS[w.controller](native_dir / f"{w.name}Controller.fmu",
                                                     defaults=spec.controller_defaults())
             built.append(ctrl)
-        fmu, ssp = write_closed_loop(spec, plant, ctrl, native_dir)
+        fmu, ssp = spec.write(plant, ctrl, native_dir)
         built.append(fmu)
         say(f"built native/{fmu.name} and native/{ssp.name} ({time.perf_counter() - t0:.1f} s)")
     return built
