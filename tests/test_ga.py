@@ -146,13 +146,14 @@ def _bowl_objectives(laws):
 
 
 def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise",
-                 generations=7):
+                 generations=7, patience=0):
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
     psi[0, 3], psi[1, 3], psi[3, 4], psi[2, 4], psi[4, 5] = 1, 1, 1, 1, 1
     cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, basis_rule=basis_rule)
-    refine = RefineConfig(evals=refine_evals, laws=2, basis=refine_basis)
+    refine = RefineConfig(evals=refine_evals, laws=2, basis=refine_basis,
+                          basis_patience=patience)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, decode=_bowl_law, target=Target(0, 1, 100.0),
                          refine=refine, generations=generations)
@@ -196,7 +197,7 @@ def test_basis_refinement_comes_first_and_resumes():
     # refine basis: after the initial population, CMA-ES tunes the basis (member 0, no
     # variations) alone for its own budget before any child is made; the basis q then reaches
     # the constrained minimum of the bowl, 0.08 (closed form, as above), within 1e-3
-    a = _refining_ga(3, refine_evals=0, refine_basis=400)
+    a = _refining_ga(3, refine_evals=0, refine_basis=400)   # basis_patience 0: fixed budget
     phases, evals = [], []
     while "children" not in phases and len(phases) < 500:
         cands = a.ask()
@@ -218,6 +219,55 @@ def test_basis_refinement_comes_first_and_resumes():
     c = run(_refining_ga(999, refine_evals=0, refine_basis=400, generations=3)
             .load_state(mid), _bowl_objectives).method
     assert np.array_equal(b.F, c.F) and b.evaluations == c.evaluations
+
+
+def _rippled_bowl(laws):
+    # the bowl above with cosine ripples (local minima every 1/3 in each q): CMA-ES converges
+    # into one of them and its IPOP restarts (from the best point, wider population) may find
+    # a lower one
+    F = []
+    for law in laws:
+        d = np.asarray(law.q) - [0.3, -0.2]
+        F.append((float((d ** 2).sum() + 0.3 * (1 - np.cos(6 * np.pi * d)).sum()),
+                  1000 * abs(law.q[0] - law.q[1] - 1.0)))
+    return np.array(F)
+
+
+def _basis_trace(patience):
+    """Drive a GA through its basis refinement: (evaluations, IPOP restarts, best key, failed
+    restarts in a row) after every CMA-ES generation, and the basis' objectives after it."""
+    a, trace = _refining_ga(3, refine_evals=0, refine_basis=400, patience=patience), []
+    while True:
+        cands = a.ask()
+        if a._pending[0] == "children":
+            return trace, a.pop[0].f
+        s = a.refinement.searches[0] if a._pending[0] == "refine" else None
+        F = _rippled_bowl([c.law for c in cands])
+        a.tell(F, np.zeros(len(F)))
+        if s is not None:
+            trace.append((s.evals, s.cma.restarts, s.cma.best_key, s.failed))
+
+
+def test_basis_refinement_goes_on_while_its_restarts_improve():
+    # basis_patience (the rule's definition): past its `basis` budget the basic solution's
+    # CMA-ES goes on until `patience` IPOP restarts in a row have not improved its best value
+    # (by RESTART_GAIN); 0 stops at the budget (whole CMA-ES generations: at most one more)
+    from descent_fmus.synthesis.methods.refinement import RESTART_GAIN
+    fixed, f_fixed = _basis_trace(0)
+    assert 400 <= fixed[-1][0] < 400 + 16
+    for patience in (1, 2):
+        trace, f = _basis_trace(patience)
+        assert trace[-1][0] > 400 + 16                     # it went on past its budget
+        events = [t for i, t in enumerate(trace) if i and t[1] > trace[i - 1][1]]
+        failed = [i > 0 and e[2][1] >= events[i - 1][2][1] * (1 - RESTART_GAIN)
+                  for i, e in enumerate(events)]
+        assert failed[-patience:] == [True] * patience and trace[-1] == events[-1]
+        # no earlier stop past the budget: no run of `patience` failed restarts ended there
+        for i, e in enumerate(events[:-1]):
+            if e[0] >= 400 and i + 1 >= patience:
+                assert not all(failed[i + 1 - patience:i + 1])
+        # the same seed flies the same search up to the budget, so going on can only help
+        assert trace[:len(fixed)] == fixed and f[0] <= f_fixed[0] and f[1] < 100.0
 
 
 def test_target_basis_rule_keeps_the_best_law_as_the_basis():

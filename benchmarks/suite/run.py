@@ -14,6 +14,7 @@ Finished runs are reused; a run that stopped early (interrupted) is resumed.
 
     python benchmarks/suite/run.py                                   # everything, ~1 h on 2 cores
     python benchmarks/suite/run.py --problems lq parking --seeds 1 --workers 2
+    python benchmarks/suite/run.py --problems hopper --methods network-operator   # one method
     python benchmarks/suite/run.py --no-run                          # re-tabulate runs/suite
     python benchmarks/suite/run.py --no-run --json                   # the table as JSON
 
@@ -109,9 +110,10 @@ def _launch(job: dict) -> dict:
     return rec
 
 
-def run_all(names, seeds, out: Path, fmus, workers: int, flights_override=None) -> None:
-    """Every run of the suite not finished yet, ``workers`` at once (one process each),
-    the longest first."""
+def run_all(names, seeds, out: Path, fmus, workers: int, flights_override=None,
+            methods=None) -> None:
+    """Every run of the suite not finished yet (of ``methods`` only, if given), ``workers`` at
+    once (one process each), the longest first."""
     from concurrent.futures import ThreadPoolExecutor
 
     from descent_fmus.synthesis.paths import fmu_dir
@@ -122,6 +124,8 @@ def run_all(names, seeds, out: Path, fmus, workers: int, flights_override=None) 
         problem = suite.load(name, fmus)               # builds the plants once, here
         flights = flights_override or spec.flights
         for method in methods_of(problem):
+            if methods and method not in methods:
+                continue
             for seed in seeds:
                 d = run_dir(out, name, method, seed)
                 if finished(d, flights):
@@ -365,6 +369,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--problems", nargs="+", default=list(suite.ORDER), choices=suite.ORDER)
     ap.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3])
+    ap.add_argument("--methods", nargs="+", default=None,
+                    help="run only these methods (the table still shows every finished run)")
     ap.add_argument("--flights", type=int, default=None,
                     help="flight budget of every run (default: each problem's own)")
     ap.add_argument("--out", type=Path, default=ROOT / "runs" / "suite")
@@ -381,7 +387,8 @@ def main(argv=None):
         _child(args.job)
     t0 = time.perf_counter()
     if not args.no_run:
-        run_all(args.problems, args.seeds, args.out, args.fmus, args.workers, args.flights)
+        run_all(args.problems, args.seeds, args.out, args.fmus, args.workers, args.flights,
+                args.methods)
     table = tabulate(args.problems, args.seeds, args.out, args.fmus)
     wall = time.perf_counter() - t0
     args.out.mkdir(parents=True, exist_ok=True)

@@ -3,7 +3,8 @@ promising structures.
 
 The Gray-coded bit flips of the variational GA search q poorly on the rugged landscapes of
 closed-loop laws; CMA-ES adapts its steps and their correlations.  After the initial population
-(``basis`` evaluations on the basic solution alone) and after every epoch (``evals``
+(``basis`` evaluations on the basic solution alone, continued past them while its IPOP restarts
+still improve the law: ``basis_patience``) and after every epoch (``evals``
 evaluations on each of the ``laws`` best members by the target, distinct structures), one
 CMA-ES per chosen member tunes q on the Gray code's grid; the best refined q replaces the
 member's.  A structure refined again continues its CMA-ES (mean, step size and covariance
@@ -27,6 +28,11 @@ from descent_fmus.synthesis.methods.settings import check_settings, setting
 
 __all__ = ["RefineConfig", "Refinement"]
 
+#: [choice] an IPOP restart of the basic solution's search that improves its best value by less
+#: than this share is a failed one (``basis_patience``); the search never runs past
+#: ``PATIENCE_CAP`` times its ``basis`` budget (the run's flight budget ends it sooner)
+RESTART_GAIN, PATIENCE_CAP = 1e-4, 10
+
 
 @dataclass(frozen=True)
 class RefineConfig:
@@ -34,6 +40,10 @@ class RefineConfig:
 
     basis: int = setting(1000, "CMA-ES evaluations on the basic solution's parameters before "
                                "the structure search (0 = none)", 0, 10_000_000)
+    basis_patience: int = setting(1, "past its `basis` evaluations the basic solution's "
+                                     "CMA-ES goes on until this many IPOP restarts in a row "
+                                     "have not improved its best law (0 = stop at `basis`)",
+                                  0, 100)
     evals: int = setting(200, "CMA-ES evaluations per refined law after every epoch (0 = the "
                               "GA alone)", 0, 10_000_000)
     laws: int = setting(1, "laws refined after every epoch: the best by the target, distinct "
@@ -61,6 +71,26 @@ class _Search:
     best_bits: np.ndarray
     best_f: np.ndarray
     best_cv: float
+    patience: int = 0             # failed restarts that end the search past its budget
+    mark: tuple | None = None     # the CMA-ES's best key at its last restart
+    restarts: int = 0
+    failed: int = 0               # restarts in a row that did not improve on ``mark``
+
+    def done(self, budget: int) -> bool:
+        return self.evals >= budget and (self.patience == 0 or self.failed >= self.patience
+                                         or self.evals >= PATIENCE_CAP * budget)
+
+    def count_restarts(self) -> None:
+        """After a tell: a new IPOP restart improved the best (resets ``failed``) or not."""
+        if not self.patience or self.cma.restarts == self.restarts:
+            return
+        self.restarts = self.cma.restarts
+        key = self.cma.best_key
+        old = self.mark
+        better = old is None or key[0] < old[0] or (key[0] == old[0] and key[1] < old[1]
+                                                    - RESTART_GAIN * abs(old[1]))
+        self.failed = 0 if better else self.failed + 1
+        self.mark = key
 
 
 class Refinement:
@@ -92,9 +122,10 @@ class Refinement:
                    bounds=(p.lo, p.hi - p.step), x_map=grid, restart_sigma=IPOP_SIGMA,
                    restart_stall=IPOP_STALL)
 
-    def start(self, picks, budget: int, rng: np.random.Generator) -> None:
+    def start(self, picks, budget: int, rng: np.random.Generator, patience: int = 0) -> None:
         """Start a refinement of the members ``picks`` (``(index, member, structure key)``),
-        ``budget`` evaluations each; one seed per member is drawn from ``rng``."""
+        ``budget`` evaluations each (then on until ``patience`` IPOP restarts in a row fail to
+        improve, if ``patience``); one seed per member is drawn from ``rng``."""
         searches = []
         for k, m, key in picks:
             seed = int(rng.integers(0, 2 ** 31 - 1))
@@ -106,23 +137,24 @@ class Refinement:
                 cma = next(reversed(self.pool.values()))[0].spawn(q, seed)
             else:
                 cma = self.new_cma(q, seed)
-            searches.append(_Search(k, cma, 0, m.bits.copy(), m.f.copy(), m.cv))
+            searches.append(_Search(k, cma, 0, m.bits.copy(), m.f.copy(), m.cv, patience,
+                                    restarts=cma.restarts))
         self.searches, self.budget = searches, budget
 
     def ask(self) -> list:
         """``(member index, bits)`` of the next candidates of every search still running."""
         out = []
         for s in self.searches:
-            if s.evals < self.budget:
+            if not s.done(self.budget):
                 out += [(s.member, self.codec.encode(x)) for x in s.cma.ask()]
         return out
 
     def tell(self, members) -> bool:
         """The evaluated members of the last :meth:`ask` (``f``, ``cv`` set), same order;
-        True when every search has spent its budget."""
+        True when every search is done."""
         i = 0
         for s in self.searches:
-            if s.evals >= self.budget:
+            if s.done(self.budget):
                 continue
             n = s.cma.popsize
             rows = members[i:i + n]
@@ -132,8 +164,9 @@ class Refinement:
                 if self.target.better(m.f, s.best_f, m.cv, s.best_cv):
                     s.best_bits, s.best_f, s.best_cv = m.bits.copy(), m.f.copy(), m.cv
             s.evals += n
+            s.count_restarts()
             i += n
-        return all(s.evals >= self.budget for s in self.searches)
+        return all(s.done(self.budget) for s in self.searches)
 
     def finish(self, pop, key) -> list:
         """End the refinement: ``(member index, bits, f, cv)`` of the members whose refined
@@ -162,7 +195,9 @@ class Refinement:
         return {"pool": pool, "members": [x.member for x in s], "evals": [x.evals for x in s],
                 "budget": self.budget, "cma": [x.cma.state() for x in s],
                 "best": [{"b": bits_text(x.best_bits), "f": x.best_f.tolist(), "cv": x.best_cv}
-                         for x in s]}
+                         for x in s],
+                "patience": [[x.patience, x.mark and list(x.mark), x.restarts, x.failed]
+                             for x in s]}
 
     def load_state(self, st, q0) -> None:
         st = st or {}
@@ -172,7 +207,9 @@ class Refinement:
             self.searches = None
             return
         self.budget = st["budget"]
+        patience = st.get("patience") or [[0, None, 0, 0]] * len(st["members"])
         self.searches = [_Search(k, self.new_cma(q0, 1).load_state(c), n, bits_array(b["b"]),
-                                 np.array(b["f"], float), float(b.get("cv", 0.0)))
-                         for k, n, c, b in zip(st["members"], st["evals"], st["cma"],
-                                               st["best"])]
+                                 np.array(b["f"], float), float(b.get("cv", 0.0)), pt[0],
+                                 pt[1] and tuple(float(v) for v in pt[1]), pt[2], pt[3])
+                         for k, n, c, b, pt in zip(st["members"], st["evals"], st["cma"],
+                                                   st["best"], patience)]

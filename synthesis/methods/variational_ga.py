@@ -422,7 +422,8 @@ class VariationalGA(Method):
                     picks.append(int(k))
             budget = self.refine_cfg.evals
         self.refinement.start([(k, self.pop[k], self._structure_key(self.pop[k]))
-                               for k in picks], budget, self.rng)
+                               for k in picks], budget, self.rng,
+                              self.refine_cfg.basis_patience if basis else 0)
 
     def _finish_refine(self) -> None:
         """The refined parameters replace those of the members they started from."""

@@ -205,7 +205,8 @@ class LunarDescentReport(Report):
 #: 15 ms through the FMUs and a law 5 flights, so this is ~12 000 evaluations, well under 15 min
 #: on 2 cores (measured run: models/README.md).
 LUNAR_DESCENT_RECIPE = recipe(population=128, generations=1000, crossovers=32, lchr=8, epoch=10,
-                              seed=1, flights=14_000, refine_basis=8000, refine_evals=500)
+                              seed=1, flights=14_000, refine_basis=8000, refine_evals=500,
+                              refine_basis_patience=0)
 #: Gray code of the parameters [choice]: 7 + 31 bits over [-64, 64) -- the basic law's gain
 #: q8 = 16 sits on the edge of the former [-16, 16), and the former grid of 2^-11 held the
 #: CMA-ES refinement to J1 ~ 1.8 m where a continuous CMA-ES over the same gains reaches
