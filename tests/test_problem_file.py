@@ -7,6 +7,7 @@ plant's physics (a hopper that reaches the ground has h <= 0).
 from __future__ import annotations
 
 import csv
+import json
 import shutil
 import subprocess
 import sys
@@ -44,11 +45,38 @@ def test_tutorial_problem_runs_through_the_fmus(hopper_dir, fmu_dir, tmp_path):
     # the basic law (hover + PD) never touches down from some starts (penalty 100 m/s); the
     # synthesis finds laws that land every start: a worst touchdown speed below 5 m/s
     assert s["basic_law"]["v_touchdown"] > 50.0 and best < 5.0
+    assert "best_law_q_at_range_edge" not in s["structure"]     # +-64 holds the gains
     # the exported closed loop runs in fmpy on its own and lands (h reaches 0 and freezes)
     law0 = out / "laws" / "0"
     res = simulate_fmu(str(law0 / "hopperClosedLoop.fmu"), stop_time=30.0,
                        start_values={"h0": 10.0, "v0": -1.0}, output=["h", "v"])
     assert res["h"][-1] <= 0.0 and abs(res["v"][-1]) < 5.0
+
+
+def test_a_too_narrow_parameter_range_is_reported(hopper_dir, fmu_dir, tmp_path):
+    # the basic law (gains -1.5, -0.5 on h/10 and v) lies inside q_range [-2, 2), but the laws
+    # that touch down softly need larger gains (the cma-linear baseline of the suite ends near
+    # -12 and -3.9): the basis' CMA-ES runs into the range's edge, and the run says which
+    # parameters sit there (within 1e-3 of the range's width, the report's rule)
+    shutil.copy(hopper_dir / "Hopper.fmu", tmp_path / "Hopper.fmu")
+    f = _edit(hopper_dir / "hopper.toml", tmp_path / "narrow.toml", "q_range = [-64.0, 64.0]",
+              "q_range = [-2.0, 2.0]")
+    problem = load_problem_file(f, fmu_dir=fmu_dir).tuned(**SMALL, seed=1, refine_basis=60,
+                                                           refine_basis_patience=0)
+    s = run_synthesis(problem, tmp_path / "run", fmu_dir, progress=False, export=False,
+                      reference=False)
+    st = s["structure"]
+    assert st["q_range"] == [-2.0, 2.0] and st["best_law_q_at_range_edge"]
+    best = min(s["pareto"], key=lambda r: r["v_touchdown"])
+    q = json.loads((tmp_path / "run" / "pareto.json").read_text())[best["k"]]["law"]["q"]
+    for i in st["best_law_q_at_range_edge"]:
+        assert min(abs(q[i - 1] + 2.0), abs(q[i - 1] - 2.0)) <= 4e-3
+    from types import SimpleNamespace
+
+    from descent_fmus.synthesis.cli.synthesize import _summary_lines
+    args = SimpleNamespace(method="network-operator", out=tmp_path / "run", no_export=True)
+    assert any("edge of the parameters' range [-2, 2)" in line
+               for line in _summary_lines(problem, args, s))
 
 
 def test_reentry_as_a_file_gives_the_registered_pareto_set(fmu_dir, tmp_path):

@@ -212,6 +212,11 @@ def _summary_lines(problem, args, summary) -> list:
             if st["best_law_keeps_basic_form"] else
             f"changes {st['best_law_matrix_changes']} entries of the basic law's matrix")
             + f"; {st['pareto_laws_with_new_form']} Pareto laws have a new form")
+        if st.get("best_law_q_at_range_edge"):
+            lo, hi = st["q_range"]
+            lines.append(f"  warning: the best law's parameters q{st['best_law_q_at_range_edge']}"
+                         f" sit at the edge of the parameters' range [{lo:g}, {hi:g}): the "
+                         f"search was stopped there; widen the range ([ga] q_range)")
     if summary.get("law_fmu_note"):
         lines.append(f"  note: {summary['law_fmu_note']}")
     return lines + problem.report.lines(summary)

@@ -95,9 +95,26 @@ def structure(problem, archive) -> dict:
     k = int(cma_target(problem).order(archive.F, archive.cv)[0])
     best = items[k][0].law
     n = changed(best)
-    return {"best_law_matrix_changes": n, "best_law_keeps_basic_form": n == 0,
-            "pareto_laws_with_new_form": sum(1 for c, _, _ in items if changed(c.law)),
-            "best_law": readable_text(best)}
+    out = {"best_law_matrix_changes": n, "best_law_keeps_basic_form": n == 0,
+           "pareto_laws_with_new_form": sum(1 for c, _, _ in items if changed(c.law)),
+           "best_law": readable_text(best)}
+    if "variations" in items[k][0].info:
+        out.update(range_edge(problem, best.q))
+    return out
+
+
+def range_edge(problem, q) -> dict:
+    """The parameters of a network-operator law that sit at an edge of the Gray code's range
+    (``problem.q_bits``): the search could not go further there, so the range is too narrow
+    -- ``{"best_law_q_at_range_edge": [1-based indices], "q_range": [lo, hi]}`` or {}."""
+    _, _, lo, hi = problem.q_bits
+    tol = EDGE_SHARE * (hi - lo)
+    edge = [i + 1 for i, v in enumerate(q) if v <= lo + tol or v >= hi - tol]
+    return {"best_law_q_at_range_edge": edge, "q_range": [lo, hi]} if edge else {}
+
+
+#: [choice] a parameter within this share of the range's width from an edge is "at the edge"
+EDGE_SHARE = 1e-3
 
 
 def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
