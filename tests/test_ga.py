@@ -146,7 +146,7 @@ def _bowl_objectives(laws):
 
 
 def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise",
-                 generations=7, patience=0):
+                 generations=7, patience=0, flights=0):
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
@@ -156,7 +156,7 @@ def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise"
                           basis_patience=patience)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, decode=_bowl_law, target=Target(0, 1, 100.0),
-                         refine=refine, generations=generations)
+                         refine=refine, generations=generations, flights=flights)
 
 
 def _bowl_law(psi, q):
@@ -233,10 +233,13 @@ def _rippled_bowl(laws):
     return np.array(F)
 
 
-def _basis_trace(patience):
+def _basis_trace(patience, flights=430):
     """Drive a GA through its basis refinement: (evaluations, IPOP restarts, best key, failed
-    restarts in a row) after every CMA-ES generation, and the basis' objectives after it."""
-    a, trace = _refining_ga(3, refine_evals=0, refine_basis=400, patience=patience), []
+    restarts in a row) after every CMA-ES generation, and the basis' objectives after it.
+    The flight budget 430 leaves 14 after the population (16) and the basis budget (400): less
+    than one epoch of the structure search (3 generations of 16 children)."""
+    a, trace = _refining_ga(3, refine_evals=0, refine_basis=400, patience=patience,
+                            flights=flights), []
     while True:
         cands = a.ask()
         if a._pending[0] == "children":
@@ -249,17 +252,21 @@ def _basis_trace(patience):
 
 
 def test_basis_refinement_goes_on_while_its_restarts_improve():
-    # basis_patience (the rule's definition): past its `basis` budget the basic solution's
-    # CMA-ES goes on until `patience` IPOP restarts in a row have not improved its best value
-    # (by RESTART_GAIN); 0 stops at the budget (whole CMA-ES generations: at most one more)
-    from descent_fmus.synthesis.methods.refinement import RESTART_GAIN
+    # basis_patience (the rule's definition): when the flight budget left after the basis
+    # budget cannot hold one epoch of the structure search, the basic solution's CMA-ES goes on
+    # past its budget until `patience` IPOP restarts in a row have not improved its best value
+    # (by restart_gain); 0 stops at the budget (whole CMA-ES generations: at most one more), as
+    # does a flight budget with room for an epoch
+    gain = RefineConfig().restart_gain
     fixed, f_fixed = _basis_trace(0)
     assert 400 <= fixed[-1][0] < 400 + 16
+    roomy, _ = _basis_trace(1, flights=16 + 400 + 48)
+    assert roomy == fixed
     for patience in (1, 2):
         trace, f = _basis_trace(patience)
         assert trace[-1][0] > 400 + 16                     # it went on past its budget
         events = [t for i, t in enumerate(trace) if i and t[1] > trace[i - 1][1]]
-        failed = [i > 0 and e[2][1] >= events[i - 1][2][1] * (1 - RESTART_GAIN)
+        failed = [i > 0 and e[2][1] >= events[i - 1][2][1] * (1 - gain)
                   for i, e in enumerate(events)]
         assert failed[-patience:] == [True] * patience and trace[-1] == events[-1]
         # no earlier stop past the budget: no run of `patience` failed restarts ended there

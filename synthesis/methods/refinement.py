@@ -3,8 +3,9 @@ promising structures.
 
 The Gray-coded bit flips of the variational GA search q poorly on the rugged landscapes of
 closed-loop laws; CMA-ES adapts its steps and their correlations.  After the initial population
-(``basis`` evaluations on the basic solution alone, continued past them while its IPOP restarts
-still improve the law: ``basis_patience``) and after every epoch (``evals``
+(``basis`` evaluations on the basic solution alone; continued past them while its IPOP restarts
+still improve the law when the flight budget left could not hold one epoch of the structure
+search: ``basis_patience``) and after every epoch (``evals``
 evaluations on each of the ``laws`` best members by the target, distinct structures), one
 CMA-ES per chosen member tunes q on the Gray code's grid; the best refined q replaces the
 member's.  A structure refined again continues its CMA-ES (mean, step size and covariance
@@ -28,10 +29,9 @@ from descent_fmus.synthesis.methods.settings import check_settings, setting
 
 __all__ = ["RefineConfig", "Refinement"]
 
-#: [choice] an IPOP restart of the basic solution's search that improves its best value by less
-#: than this share is a failed one (``basis_patience``); the search never runs past
-#: ``PATIENCE_CAP`` times its ``basis`` budget (the run's flight budget ends it sooner)
-RESTART_GAIN, PATIENCE_CAP = 1e-4, 10
+#: [choice] the basic solution's search never runs past ``PATIENCE_CAP`` times its ``basis``
+#: budget (the run's flight budget ends it sooner)
+PATIENCE_CAP = 10
 
 
 @dataclass(frozen=True)
@@ -40,10 +40,14 @@ class RefineConfig:
 
     basis: int = setting(1000, "CMA-ES evaluations on the basic solution's parameters before "
                                "the structure search (0 = none)", 0, 10_000_000)
-    basis_patience: int = setting(1, "past its `basis` evaluations the basic solution's "
+    basis_patience: int = setting(1, "when the flight budget left after `basis` cannot hold "
+                                     "one epoch of the structure search, the basic solution's "
                                      "CMA-ES goes on until this many IPOP restarts in a row "
                                      "have not improved its best law (0 = stop at `basis`)",
                                   0, 100)
+    restart_gain: float = setting(1e-4, "an IPOP restart of the basic solution's search that "
+                                        "improves its best value by less than this share is a "
+                                        "failed one (basis_patience)", 0.0, 1.0)
     evals: int = setting(200, "CMA-ES evaluations per refined law after every epoch (0 = the "
                               "GA alone)", 0, 10_000_000)
     laws: int = setting(1, "laws refined after every epoch: the best by the target, distinct "
@@ -72,6 +76,7 @@ class _Search:
     best_f: np.ndarray
     best_cv: float
     patience: int = 0             # failed restarts that end the search past its budget
+    gain: float = 0.0             # the least relative improvement of a restart that counts
     mark: tuple | None = None     # the CMA-ES's best key at its last restart
     restarts: int = 0
     failed: int = 0               # restarts in a row that did not improve on ``mark``
@@ -88,7 +93,7 @@ class _Search:
         key = self.cma.best_key
         old = self.mark
         better = old is None or key[0] < old[0] or (key[0] == old[0] and key[1] < old[1]
-                                                    - RESTART_GAIN * abs(old[1]))
+                                                    - self.gain * abs(old[1]))
         self.failed = 0 if better else self.failed + 1
         self.mark = key
 
@@ -138,7 +143,7 @@ class Refinement:
             else:
                 cma = self.new_cma(q, seed)
             searches.append(_Search(k, cma, 0, m.bits.copy(), m.f.copy(), m.cv, patience,
-                                    restarts=cma.restarts))
+                                    self.cfg.restart_gain, restarts=cma.restarts))
         self.searches, self.budget = searches, budget
 
     def ask(self) -> list:
@@ -210,6 +215,7 @@ class Refinement:
         patience = st.get("patience") or [[0, None, 0, 0]] * len(st["members"])
         self.searches = [_Search(k, self.new_cma(q0, 1).load_state(c), n, bits_array(b["b"]),
                                  np.array(b["f"], float), float(b.get("cv", 0.0)), pt[0],
+                                 self.cfg.restart_gain,
                                  pt[1] and tuple(float(v) for v in pt[1]), pt[2], pt[3])
                          for k, n, c, b, pt in zip(st["members"], st["evals"], st["cma"],
                                                    st["best"], patience)]

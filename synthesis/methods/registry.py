@@ -109,7 +109,8 @@ def _network_operator(problem, variant=None) -> Method:
                          np.random.default_rng(problem.budget.seed), problem.ga, structure,
                          basic.psi, basic.with_structure,
                          target=cma_target(problem) if uses_target else None,
-                         refine=problem.refine, generations=problem.budget.generations)
+                         refine=problem.refine, generations=problem.budget.generations,
+                         flights=problem.budget.flights)
 
 
 def baseline_structures(problem) -> dict:

@@ -123,6 +123,10 @@ class VariationalGA(Method):
 
     Attributes
     ----------
+    flights : int
+        The run's flight budget (0 = none): when what it leaves after the basis refinement
+        cannot hold one epoch of the structure search, the basis refinement goes on while its
+        restarts improve (``refine.basis_patience``), since that epoch could not happen anyway.
     rescale : callable or None
         A hook the run may set: ``rescale(law) -> law or None``, called once with the basic
         solution when its refinement ends; a law returned (the same function in other input
@@ -133,7 +137,7 @@ class VariationalGA(Method):
     def __init__(self, params: GrayCodec, q0, rng: np.random.Generator, config: GAConfig,
                  structure: StructureCodec | None = None, psi0=None, decode=None,
                  target: Target | None = None, refine: RefineConfig | None = None,
-                 generations: int | None = None):
+                 generations: int | None = None, flights: int = 0):
         refine = refine if refine is not None else RefineConfig(basis=0, evals=0)
         if (refine.active or config.basis_rule == "target") and target is None:
             raise ValueError("parameter refinement (refine evals or basis > 0) or basis_rule "
@@ -146,7 +150,7 @@ class VariationalGA(Method):
         self.psi0 = None if psi0 is None else np.array(psi0, dtype=int)
         self.q0 = list(q0)
         self.decode = decode or _default_decode
-        self.generations = generations
+        self.generations, self.flights = generations, flights
         self.generation = 0
         self.evaluations = 0
         self.pop: list[_Member] = []
@@ -409,8 +413,11 @@ class VariationalGA(Method):
         """Refine member 0 alone (``basis``) or the ``laws`` best members by the target with
         distinct structures (feasible first)."""
         self._basis_refining = basis
+        patience = 0
         if basis:
             picks, budget = [0], self.refine_cfg.basis
+            if self.flights and self.flights - self.evaluations - budget < self.epoch_cost:
+                patience = self.refine_cfg.basis_patience
         else:
             picks, seen = [], set()
             for k in self.target.order(self.F, self.CV):
@@ -422,8 +429,14 @@ class VariationalGA(Method):
                     picks.append(int(k))
             budget = self.refine_cfg.evals
         self.refinement.start([(k, self.pop[k], self._structure_key(self.pop[k]))
-                               for k in picks], budget, self.rng,
-                              self.refine_cfg.basis_patience if basis else 0)
+                               for k in picks], budget, self.rng, patience)
+
+    @property
+    def epoch_cost(self) -> int:
+        """Evaluations of one epoch of the structure search at most: its generations'
+        children and the refinement after it."""
+        r = self.refine_cfg
+        return self.cfg.epoch * 4 * self.cfg.crossovers + r.evals * r.laws
 
     def _finish_refine(self) -> None:
         """The refined parameters replace those of the members they started from."""
