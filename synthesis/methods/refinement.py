@@ -4,7 +4,7 @@ promising structures.
 The Gray-coded bit flips of the variational GA search q poorly on the rugged landscapes of
 closed-loop laws; CMA-ES adapts its steps and their correlations.  After the initial population
 (``basis`` evaluations on the basic solution alone; continued past them while its IPOP restarts
-still improve the law when the flight budget left could not hold one epoch of the structure
+still improve the law when the flight budget left could not hold two epochs of the structure
 search: ``basis_patience``) and after every epoch (``evals``
 evaluations on each of the ``laws`` best members by the target, distinct structures), one
 CMA-ES per chosen member tunes q on the Gray code's grid; the best refined q replaces the
@@ -41,7 +41,7 @@ class RefineConfig:
     basis: int = setting(1000, "CMA-ES evaluations on the basic solution's parameters before "
                                "the structure search (0 = none)", 0, 10_000_000)
     basis_patience: int = setting(1, "when the flight budget left after `basis` cannot hold "
-                                     "one epoch of the structure search, the basic solution's "
+                                     "two epochs of the structure search, the basic solution's "
                                      "CMA-ES goes on until this many IPOP restarts in a row "
                                      "have not improved its best law (0 = stop at `basis`)",
                                   0, 100)

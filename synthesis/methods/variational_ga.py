@@ -49,6 +49,12 @@ from descent_fmus.synthesis.methods.settings import check_settings, setting
 __all__ = ["GAConfig", "VariationalGA", "PAPER_UNARY", "PAPER_BINARY", "WIDE_UNARY",
            "WIDE_BINARY"]
 
+#: [choice] Epochs the structure search needs to deliver a new form with tuned parameters: a form
+#: found in one epoch becomes the basis and has its parameters refined only at that epoch's end,
+#: and its refinement goes on in the next.  A flight budget that leaves fewer after the basis
+#: refinement lets the basis refinement go on while it improves (``refine.basis_patience``).
+STRUCTURE_EPOCHS = 2
+
 #: The operations the variations may use by default: the paper's set (the seeds' numbering).
 PAPER_UNARY = (1, 3, 4, 5, 8, 9, 10, 14, 15)
 PAPER_BINARY = (1, 2)
@@ -125,8 +131,8 @@ class VariationalGA(Method):
     ----------
     flights : int
         The run's flight budget (0 = none): when what it leaves after the basis refinement
-        cannot hold one epoch of the structure search, the basis refinement goes on while its
-        restarts improve (``refine.basis_patience``), since that epoch could not happen anyway.
+        cannot hold ``STRUCTURE_EPOCHS`` epochs of the structure search, the basis refinement
+        goes on while its restarts improve (``refine.basis_patience``).
     rescale : callable or None
         A hook the run may set: ``rescale(law) -> law or None``, called once with the basic
         solution when its refinement ends; a law returned (the same function in other input
@@ -416,7 +422,8 @@ class VariationalGA(Method):
         patience = 0
         if basis:
             picks, budget = [0], self.refine_cfg.basis
-            if self.flights and self.flights - self.evaluations - budget < self.epoch_cost:
+            if self.flights and self.flights - self.evaluations - budget \
+                    < STRUCTURE_EPOCHS * self.epoch_cost:
                 patience = self.refine_cfg.basis_patience
         else:
             picks, seen = [], set()

@@ -81,7 +81,7 @@ fixed-structure baselines).  The format, key by key::
 
     [refine]                              # optional: CMA-ES on promising laws' parameters
     basis = 400                           # evaluations on the basic solution first
-    basis_patience = 1                    # ... then on until an IPOP restart fails (0 = stop)
+    basis_patience = 1                    # ... on while its restarts improve, if no epoch fits
     evals = 200                           # per refined law after every epoch
     laws = 1                              # laws refined per epoch
     # sigma = 0.3  popsize = 0
