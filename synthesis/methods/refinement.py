@@ -29,6 +29,10 @@ from descent_fmus.synthesis.methods.settings import check_settings, setting
 
 __all__ = ["RefineConfig", "Refinement"]
 
+#: [choice] Epochs the structure search needs to deliver a new form with tuned parameters: a form
+#: found in one epoch becomes the basis and has its parameters refined only at that epoch's end,
+#: and its refinement goes on in the next (:meth:`RefineConfig.patience_for`).
+STRUCTURE_EPOCHS = 2
 #: [choice] the basic solution's search never runs past ``PATIENCE_CAP`` times its ``basis``
 #: budget (the run's flight budget ends it sooner)
 PATIENCE_CAP = 10
@@ -63,6 +67,13 @@ class RefineConfig:
     @property
     def active(self) -> bool:
         return bool(self.basis or self.evals)
+
+    def patience_for(self, left: int | None, epoch_children: int) -> int:
+        """The basis refinement's patience: ``basis_patience`` when the flights ``left`` after
+        it (None: no flight budget) cannot hold ``STRUCTURE_EPOCHS`` epochs of the structure
+        search (``epoch_children`` children and the refinement after each), else 0."""
+        epochs = STRUCTURE_EPOCHS * (epoch_children + self.evals * self.laws)
+        return self.basis_patience if left is not None and left < epochs else 0
 
 
 @dataclass

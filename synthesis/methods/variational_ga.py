@@ -49,12 +49,6 @@ from descent_fmus.synthesis.methods.settings import check_settings, setting
 __all__ = ["GAConfig", "VariationalGA", "PAPER_UNARY", "PAPER_BINARY", "WIDE_UNARY",
            "WIDE_BINARY"]
 
-#: [choice] Epochs the structure search needs to deliver a new form with tuned parameters: a form
-#: found in one epoch becomes the basis and has its parameters refined only at that epoch's end,
-#: and its refinement goes on in the next.  A flight budget that leaves fewer after the basis
-#: refinement lets the basis refinement go on while it improves (``refine.basis_patience``).
-STRUCTURE_EPOCHS = 2
-
 #: The operations the variations may use by default: the paper's set (the seeds' numbering).
 PAPER_UNARY = (1, 3, 4, 5, 8, 9, 10, 14, 15)
 PAPER_BINARY = (1, 2)
@@ -130,9 +124,7 @@ class VariationalGA(Method):
     Attributes
     ----------
     flights : int
-        The run's flight budget (0 = none): when what it leaves after the basis refinement
-        cannot hold ``STRUCTURE_EPOCHS`` epochs of the structure search, the basis refinement
-        goes on while its restarts improve (``refine.basis_patience``).
+        The run's flight budget (0 = none), for :meth:`RefineConfig.patience_for`.
     rescale : callable or None
         A hook the run may set: ``rescale(law) -> law or None``, called once with the basic
         solution when its refinement ends; a law returned (the same function in other input
@@ -418,13 +410,11 @@ class VariationalGA(Method):
     def _start_refine(self, basis: bool = False) -> None:
         """Refine member 0 alone (``basis``) or the ``laws`` best members by the target with
         distinct structures (feasible first)."""
-        self._basis_refining = basis
-        patience = 0
+        self._basis_refining, patience = basis, 0
         if basis:
             picks, budget = [0], self.refine_cfg.basis
-            if self.flights and self.flights - self.evaluations - budget \
-                    < STRUCTURE_EPOCHS * self.epoch_cost:
-                patience = self.refine_cfg.basis_patience
+            left = self.flights - self.evaluations - budget if self.flights else None
+            patience = self.refine_cfg.patience_for(left, self.cfg.epoch * 4 * self.cfg.crossovers)
         else:
             picks, seen = [], set()
             for k in self.target.order(self.F, self.CV):
@@ -437,13 +427,6 @@ class VariationalGA(Method):
             budget = self.refine_cfg.evals
         self.refinement.start([(k, self.pop[k], self._structure_key(self.pop[k]))
                                for k in picks], budget, self.rng, patience)
-
-    @property
-    def epoch_cost(self) -> int:
-        """Evaluations of one epoch of the structure search at most: its generations'
-        children and the refinement after it."""
-        r = self.refine_cfg
-        return self.cfg.epoch * 4 * self.cfg.crossovers + r.evals * r.laws
 
     def _finish_refine(self) -> None:
         """The refined parameters replace those of the members they started from."""
