@@ -93,10 +93,13 @@ def _sensing(noise: float, bias: float, k: int, seed: int) -> dict:
 
 def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise, bias, seed,
               per_sample=None):
+    from tqdm import tqdm
     rows = []
     sensed = wiring is not WIRING
     with ClosedLoop(wiring, fmu_dir / plant, fmu_dir / ctrl_fmu) as loop:
-        for k, p in enumerate(params):
+        # a progress bar on a terminal only (a re-planned flight costs ~1 s)
+        for k, p in enumerate(tqdm(params, desc=f"{wiring.name} flights", unit="flight",
+                                   leave=False, disable=None)):
             cv = dict(controller_values)
             cv.update(_sensing(noise, bias, k, seed))
             p, errors = (p.plant, p.sensing) if isinstance(p, Sample) else (p, {})
