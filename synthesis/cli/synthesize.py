@@ -214,7 +214,8 @@ def _summary_lines(problem, args, summary) -> list:
             + f"; {st['pareto_laws_with_new_form']} Pareto laws have a new form")
         if st.get("best_law_q_at_range_edge"):
             lo, hi = st["q_range"]
-            lines.append(f"  warning: the best law's parameters q{st['best_law_q_at_range_edge']}"
+            qs = ", ".join(f"q{i}" for i in st["best_law_q_at_range_edge"])
+            lines.append(f"  warning: the best law's parameters {qs}"
                          f" sit at the edge of the parameters' range [{lo:g}, {hi:g}): the "
                          f"search was stopped there; widen the range ([ga] q_range)")
     if summary.get("law_fmu_note"):

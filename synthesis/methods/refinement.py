@@ -87,7 +87,6 @@ class _Search:
     best_f: np.ndarray
     best_cv: float
     patience: int = 0             # failed restarts that end the search past its budget
-    gain: float = 0.0             # the least relative improvement of a restart that counts
     mark: tuple | None = None     # the CMA-ES's best key at its last restart
     restarts: int = 0
     failed: int = 0               # restarts in a row that did not improve on ``mark``
@@ -96,15 +95,16 @@ class _Search:
         return self.evals >= budget and (self.patience == 0 or self.failed >= self.patience
                                          or self.evals >= PATIENCE_CAP * budget)
 
-    def count_restarts(self) -> None:
-        """After a tell: a new IPOP restart improved the best (resets ``failed``) or not."""
+    def count_restarts(self, gain: float) -> None:
+        """After a tell: a new IPOP restart improved the best by the share ``gain`` (resets
+        ``failed``) or not."""
         if not self.patience or self.cma.restarts == self.restarts:
             return
         self.restarts = self.cma.restarts
         key = self.cma.best_key
         old = self.mark
         better = old is None or key[0] < old[0] or (key[0] == old[0] and key[1] < old[1]
-                                                    - self.gain * abs(old[1]))
+                                                    - gain * abs(old[1]))
         self.failed = 0 if better else self.failed + 1
         self.mark = key
 
@@ -154,7 +154,7 @@ class Refinement:
             else:
                 cma = self.new_cma(q, seed)
             searches.append(_Search(k, cma, 0, m.bits.copy(), m.f.copy(), m.cv, patience,
-                                    self.cfg.restart_gain, restarts=cma.restarts))
+                                    restarts=cma.restarts))
         self.searches, self.budget = searches, budget
 
     def ask(self) -> list:
@@ -180,7 +180,7 @@ class Refinement:
                 if self.target.better(m.f, s.best_f, m.cv, s.best_cv):
                     s.best_bits, s.best_f, s.best_cv = m.bits.copy(), m.f.copy(), m.cv
             s.evals += n
-            s.count_restarts()
+            s.count_restarts(self.cfg.restart_gain)
             i += n
         return all(s.done(self.budget) for s in self.searches)
 
@@ -226,7 +226,6 @@ class Refinement:
         patience = st.get("patience") or [[0, None, 0, 0]] * len(st["members"])
         self.searches = [_Search(k, self.new_cma(q0, 1).load_state(c), n, bits_array(b["b"]),
                                  np.array(b["f"], float), float(b.get("cv", 0.0)), pt[0],
-                                 self.cfg.restart_gain,
                                  pt[1] and tuple(float(v) for v in pt[1]), pt[2], pt[3])
                          for k, n, c, b, pt in zip(st["members"], st["evals"], st["cma"],
                                                    st["best"], patience)]
