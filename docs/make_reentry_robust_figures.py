@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import asdict
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -149,12 +148,10 @@ def families_main(argv=None):
 
     import numpy as np
 
-    from descent_fmus.synthesis.systems.reentry.error_families import FAMILIES, family_samples
-    from descent_fmus.synthesis.systems.reentry.family_study import oracle_stats
+    from descent_fmus.synthesis.systems.reentry.error_families import FAMILIES
+    from descent_fmus.synthesis.systems.reentry.family_study import family_study
     from descent_fmus.synthesis.systems.reentry.guidance import default_guided_law
-    from descent_fmus.synthesis.systems.reentry.load_oracle import set_limits
-    from descent_fmus.synthesis.systems.reentry.robust_study import (SCENARIOS, fly_law,
-                                                                      fly_npc, stats)
+    from descent_fmus.synthesis.systems.reentry.robust_study import SCENARIOS
     ap = argparse.ArgumentParser(description="S1 guidance over the model-error families")
     ap.add_argument("--errors", nargs="+", default=["spec", "scale-height"], choices=FAMILIES)
     ap.add_argument("--samples", type=int, default=200)
@@ -173,35 +170,18 @@ def families_main(argv=None):
     import matplotlib
     matplotlib.use("Agg")
     law = default_guided_law()
-    base = SCENARIOS[args.scenario]
-    args.out.mkdir(parents=True, exist_ok=True)
-    study = {"samples": args.samples, "seed": args.seed, "scenario": args.scenario,
-             "families": {}, "scenarios": {}}
-    for fam in args.errors:
-        sset = family_samples(fam, args.samples, args.seed, base)
-        study["families"][fam] = FAMILIES[fam].description
-        results = {}
-        for key in args.options:
-            label, params = FAMILY_OPTIONS[key]
-            path = args.out / f"{fam}_{args.scenario}_{args.samples}_{args.seed}_{key}.json"
-            if not path.exists():
-                rows = fly_npc(sset, args.fmus) if params is None else \
-                    fly_law(law, sset, args.fmus, guidance=params)
-                path.write_text(json.dumps(json_safe(rows)))
-                print(f"{fam}: {label} flown", file=sys.stderr)
-            results[label] = json.loads(path.read_text())
-        n_load = args.samples if args.load_oracle is None else min(args.load_oracle,
-                                                                    args.samples)
-        limits = set_limits([s.plant for s in sset[:n_load]], base=base) + \
-            set_limits([s.plant for s in sset[n_load:]], load=False, base=base)
-        sc = {"params": [asdict(s.plant) for s in sset], "results": results, "limits": limits,
-              "oracle": [r["miss"] for r in limits],
-              "stats": {n: stats(rows) for n, rows in results.items()}}
-        sc["stats"].update(oracle_stats(limits))
-        loaded = [k for k, r in enumerate(limits) if "J1_load" in r]
+    laws = {label: (law, params) for key, (label, params) in FAMILY_OPTIONS.items()
+            if key in args.options and params is not None}
+    found = family_study(laws, args.errors, args.samples, args.seed, args.fmus,
+                         npc="npc" in args.options, load_oracle=args.load_oracle, basic=False,
+                         base=SCENARIOS[args.scenario], flown=args.out / args.scenario,
+                         progress=lambda fam, n: print(f"{fam}: {n} flown", file=sys.stderr))
+    study = {**found, "scenario": args.scenario, "scenarios": {}}
+    for fam, sc in found["scenarios"].items():
+        loaded = [k for k, r in enumerate(sc["limits"]) if "J1_load" in r]
         # the options' median J1 on the samples that have a load oracle, beside its median
         sc["stats_load_subset"] = {n: float(np.median([rows[k]["J1"] for k in loaded]))
-                                   for n, rows in results.items()} if loaded else {}
+                                   for n, rows in sc["results"].items()} if loaded else {}
         study["scenarios"][fam if args.scenario == "default" else
                            f"{args.scenario} scenario, {fam}"] = sc
     stem = "reentry_families" + ("" if args.scenario == "default" else f"_{args.scenario}")

@@ -19,6 +19,8 @@ it; the load oracle is one more row (its J1) and one more box.
 """
 from __future__ import annotations
 
+import json
+import re
 from dataclasses import asdict
 from pathlib import Path
 
@@ -55,13 +57,30 @@ def oracle_stats(limits) -> dict:
     return out
 
 
+def _kept(path: Path | None, fly) -> list:
+    """The rows of ``fly()``, kept in ``path`` as JSON and read back from it when it exists
+    (None: flown every time)."""
+    if path is None:
+        return fly()
+    if not path.exists():
+        from descent_fmus.synthesis.cli.common import json_safe
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(json_safe(fly())))
+        tmp.replace(path)
+    return json.loads(path.read_text())
+
+
 def family_study(laws: dict, families, samples: int, seed: int, fmu_dir, npc: bool = True,
                  oracle: bool = True, load_oracle: int | None = None, basic: bool = True,
-                 progress=None, base: ReentryParams = ReentryParams()) -> dict:
+                 progress=None, base: ReentryParams = ReentryParams(),
+                 flown: Path | None = None) -> dict:
     """Fly every option over each family's held-out set (module docstring).  ``laws`` maps a
     name to a law or to ``(law, controller parameters)``; ``load_oracle`` = the number of
     samples (from the first) whose load oracle is computed (None: all, 0: none); ``base`` the
-    scenario the families are drawn around (default: the default scenario).
+    scenario the families are drawn around (default: the default scenario); ``flown`` a
+    folder where each option's flights over each family's set are kept and read back on a
+    second call (None: not kept).
 
     Returns ``{"samples", "seed", "families", "scenarios": {family: {"params", "sensing",
     "results", "stats", "oracle", "limits"}}}``."""
@@ -78,13 +97,16 @@ def family_study(laws: dict, families, samples: int, seed: int, fmu_dir, npc: bo
         out["families"][name] = fam.description
         sset = family_samples(name, samples, seed, base)
         results = {}
+        kept = (lambda n: Path(flown) / (re.sub(r"[^A-Za-z0-9.]+", "-", f"{name} {samples} "
+                                                 f"{seed} {n}").strip("-") + ".json")) \
+            if flown else (lambda n: None)
         for n, option in options.items():
             law, guidance = _with_guidance(option)
-            results[n] = fly_law(law, sset, fmu_dir, guidance=guidance)
+            results[n] = _kept(kept(n), lambda: fly_law(law, sset, fmu_dir, guidance=guidance))
             if progress is not None:
                 progress(name, n)
         if npc:
-            results[NPC] = fly_npc(sset, fmu_dir)
+            results[NPC] = _kept(kept(NPC), lambda: fly_npc(sset, fmu_dir))
         sc = {"params": [asdict(s.plant) for s in sset], "sensing": [s.sensing for s in sset],
               "results": results,
               "stats": {n: stats(rows) for n, rows in results.items()}}
