@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 from descent_fmus.models.controllers.drag_estimator import DragEstimatorParams, DragFactorEstimator
 from descent_fmus.models.params import param
+from descent_fmus.models.traceable import where
 from descent_fmus.models.reentry import ReentryParams
 
 __all__ = ["ProfileParams", "ProfileEstimator", "Profile", "H_REF", "H_UNIT"]
@@ -92,14 +93,19 @@ class ProfileEstimator(DragFactorEstimator):
     def __init__(self, params: ProfileParams = ProfileParams(),
                  model: ReentryParams = ReentryParams()):
         super().__init__(params, model)
-        p = self.params
-        sb = p.scale_prior * model.lam * H_UNIT
-        self.prior = (ALPHA_PRECISION, 1.0 / (sb * sb) if sb > 0.0 else OFF_PRECISION,
-                      1.0 / (p.bias_prior * p.bias_prior) if p.bias_prior > 0.0
-                      else OFF_PRECISION)
-        self.iw = 1.0 / (p.accel_sigma * p.accel_sigma)
+        self._weights()
         # sums of w phi phi^T (upper triangle) and w phi z, phi = (1, d, e)
         self.s = [0.0] * 9
+
+    def _weights(self) -> None:
+        """The prior precisions of (alpha, beta, gamma) and the samples' weight per unit
+        a_nominal^2, from the parameters and the model."""
+        p = self.params
+        sb = p.scale_prior * self.model.lam * H_UNIT
+        self.prior = (ALPHA_PRECISION, where(sb > 0.0, lambda: 1.0 / (sb * sb), OFF_PRECISION),
+                      where(p.bias_prior > 0.0, lambda: 1.0 / (p.bias_prior * p.bias_prior),
+                            OFF_PRECISION))
+        self.iw = 1.0 / (p.accel_sigma * p.accel_sigma)
 
     def _terms(self, a_drag_g: float, x):
         """The sample's ``(w, z, d, e)``, or None where the constant-factor sample is None."""
@@ -142,8 +148,8 @@ class ProfileEstimator(DragFactorEstimator):
         var = v11 + 2.0 * d * v12 + d * d * v22
         return Profile(kd=self.kd * math.exp(alpha - beta * H_REF / H_UNIT),
                        lam=m.lam - beta / H_UNIT, log_factor=alpha + beta * d,
-                       log_factor_sd=math.sqrt(var if var > 0.0 else 0.0),
-                       lam_sd=math.sqrt(v22 if v22 > 0.0 else 0.0) / H_UNIT, bias=gamma)
+                       log_factor_sd=math.sqrt(where(var > 0.0, var, 0.0)),
+                       lam_sd=math.sqrt(where(v22 > 0.0, v22, 0.0)) / H_UNIT, bias=gamma)
 
     def estimate(self, a_drag_g: float, x) -> float:
         """The log factor of the fitted profile at the current altitude (0 before any sample)."""

@@ -34,6 +34,7 @@ from descent_fmus.models.reentry import (T_PLUS, U_BOUNDS, ReentryParams, altitu
                                          downrange, loads, rhs)
 
 __all__ = ["NPCParams", "GuidedParams", "gate_weight", "predict_range", "predict_flight",
+           "predict_step", "predicted_inputs",
            "solve_control",
            "ReentryNPC", "GuidedNetworkOperatorController"]
 
@@ -116,17 +117,13 @@ def predict_flight(x, control, kd: float, model: ReentryParams = ReentryParams()
     (an empty list without ``record``)."""
     gm, _, lam_m, rz = model.constants()
     lam = lam_m if lam is None else lam
-    rz_hf, g0 = rz + model.hf, model.g0
-
-    def event(y):
-        return math.hypot(y[0], y[2]) - rz_hf
-
+    g0 = model.g0
     x, t, samples = tuple(x), 0.0, []
     while t < HORIZON - 1e-9:
         args = (control(x), gm, kd, lam, rz)
         if record:
             samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
-        x, _, outcome = advance_to(rhs, x, 0.0, dt, dt, args, event=event)
+        x, outcome = predict_step(x, args[0], kd, lam, model, dt)
         if outcome == EVENT:
             if record:
                 samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
@@ -137,6 +134,27 @@ def predict_flight(x, control, kd: float, model: ReentryParams = ReentryParams()
             samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
         t += dt
     return NOT_REACHED, samples
+
+
+def predicted_inputs(xp, line: ReentryParams, rz: float, log_factor: float, dlam: float,
+                     h_now: float):
+    """The guided law's inputs at a predicted state ``xp``: y1, y2 (the deviations from
+    ``line``'s straight line) and y3, the log factor the fitted profile gives at the altitude of
+    ``xp`` (``log_factor`` at ``h_now``, its slope ``dlam`` the profile's lam minus the
+    model's)."""
+    y1, y2 = deviations(xp, line)
+    return y1, y2, log_factor - dlam * (altitude(xp, rz) - h_now)
+
+
+def predict_step(x, u: float, kd: float, lam: float, model: ReentryParams, dt: float):
+    """One step ``dt`` of the on-board prediction (:func:`predict_flight`) under the held
+    control ``u``: ``(x, outcome)``, the state after it -- at h = hf if the step reaches it
+    (outcome EVENT) -- and :func:`models.integrators.advance_to`'s outcome."""
+    gm, _, _, rz = model.constants()
+    rz_hf = rz + model.hf
+    x, _, outcome = advance_to(rhs, x, 0.0, dt, dt, (u, gm, kd, lam, rz),
+                               event=lambda y: math.hypot(y[0], y[2]) - rz_hf)
+    return x, outcome
 
 
 def predict_range(x, u, kd: float, model: ReentryParams = ReentryParams(),
@@ -381,9 +399,10 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
 
         def control_for(correction):
             def control(xp):
-                inputs[0], inputs[1] = deviations(xp, line)
+                inputs[0], inputs[1], y3 = predicted_inputs(xp, line, rz, prof.log_factor, dlam,
+                                                            h_now)
                 if k_e >= 0:
-                    inputs[k_e] = prof.log_factor - dlam * (altitude(xp, rz) - h_now)
+                    inputs[k_e] = y3
                 c = correction(xp)
                 if reads:
                     inputs[k_c] = c

@@ -82,14 +82,21 @@ def layout_config(variables, names: dict, constants: dict | None = None) -> str:
            "pythonfmu class) */\n" + "\n".join(lines) + "\n"
 
 
-def _no_layout(variables) -> str:
+#: the variables no_controller.h reads (macro -> the first variable of its block)
+_NO_NAMES = {"VR_X": "x[1]", "VR_U": "u[1]", "VR_Q": "q[1]", "VR_UMIN": "u_min[1]",
+             "VR_UMAX": "u_max[1]", "VR_XSCALE": "x_scale[1]", "VR_XOFFSET": "x_offset[1]",
+             "IX_NX": "nx", "IX_NQ": "nq", "IX_NU": "nu", "IX_OUT": "out[1]",
+             "IX_PSI": "psi[1,1]"}
+
+
+def _no_capacity() -> dict:
+    """The generic controller's capacity (no_controller.h's NO_*_MAX)."""
     from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX, NU_MAX, NX_MAX
-    return layout_config(variables, {
-        "VR_SAMPLE": "sample_period", "VR_X": "x[1]", "VR_U": "u[1]", "VR_Q": "q[1]",
-        "VR_UMIN": "u_min[1]", "VR_UMAX": "u_max[1]", "VR_XSCALE": "x_scale[1]",
-        "VR_XOFFSET": "x_offset[1]", "IX_NX": "nx", "IX_NQ": "nq", "IX_NU": "nu",
-        "IX_OUT": "out[1]", "IX_PSI": "psi[1,1]"},
-        {"NO_L_MAX": L_MAX, "NO_NX_MAX": NX_MAX, "NO_NQ_MAX": NQ_MAX, "NO_NU_MAX": NU_MAX})
+    return {"NO_L_MAX": L_MAX, "NO_NX_MAX": NX_MAX, "NO_NQ_MAX": NQ_MAX, "NO_NU_MAX": NU_MAX}
+
+
+def _no_layout(variables) -> str:
+    return layout_config(variables, dict(_NO_NAMES, VR_SAMPLE="sample_period"), _no_capacity())
 
 
 def with_starts(variables, defaults: dict | None) -> list:
@@ -185,15 +192,10 @@ def build_sensed_controller(dest, compiler: str | None = None,
     """The native ``SensedNetworkOperatorController``: the generic controller's interpreter and
     the estimator (``c/sensed_model.c``)."""
     from descent_fmus.models.controllers.drag_estimator import SensedNetworkOperatorController
-    from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX, NU_MAX, NX_MAX
     from descent_fmus.synthesis.fmi.native.sensing import sensing_sources
     cls = SensedNetworkOperatorController
-    names = {"VR_X": "x[1]", "VR_U": "u[1]", "VR_Q": "q[1]", "VR_UMIN": "u_min[1]",
-             "VR_UMAX": "u_max[1]", "VR_XSCALE": "x_scale[1]", "VR_XOFFSET": "x_offset[1]",
-             "IX_NX": "nx", "IX_NQ": "nq", "IX_NU": "nu", "IX_OUT": "out[1]",
-             "IX_PSI": "psi[1,1]", "IX_ESTIMATE": "estimate_input"}
-    constants = {"NO_L_MAX": L_MAX, "NO_NX_MAX": NX_MAX, "NO_NQ_MAX": NQ_MAX,
-                 "NO_NU_MAX": NU_MAX}
+    names = dict(_NO_NAMES, IX_ESTIMATE="estimate_input")
+    constants = _no_capacity()
     generated = dict(sensing_sources(cls, "sensed"),
                      **{"no_operations.h": interpreter_operations_h()})
     return _build_twin(cls, dest, "sensed_model.c",
@@ -201,11 +203,37 @@ def build_sensed_controller(dest, compiler: str | None = None,
                        NO_FILES + SENSING_FILES, generated, compiler, defaults)
 
 
+def build_guided_controller(dest, compiler: str | None = None,
+                            defaults: dict | None = None) -> Path:
+    """The native ``GuidedNetworkOperatorController`` with the correction c one number per
+    cycle (``c/guided_model.c``; the estimator's and the prediction's C generated from the
+    Python, :mod:`.sensing`, :mod:`.guidance`).  ``replan = 1`` is refused at initialisation:
+    the re-planner stays in the pythonfmu FMU."""
+    from descent_fmus.models.controllers.reentry_npc import GuidedNetworkOperatorController
+    from descent_fmus.synthesis.fmi.native.guidance import guidance_constants, trace_guidance
+    from descent_fmus.synthesis.fmi.native.sensing import sensing_sources
+    cls = GuidedNetworkOperatorController
+    names = dict(_NO_NAMES, IX_ESTIMATE="estimate_input", IX_CORRECTION="correction_input",
+                 VR_GAIN="correction_gain", VR_GATE="correction_gate", VR_CMAX="correction_max",
+                 VR_TOL="tol", VR_DTPRED="dt_pred", VR_CYCLE="cycle", VR_CORR="correction",
+                 VR_MISS="predicted_miss", VR_SHE="scale_height_error",
+                 VR_FACTOR_SD="drag_factor_sd", IX_REPLAN="replan", IX_MAXITER="max_iter",
+                 IX_NPRED="predictions")
+    constants = dict(_no_capacity(), SENSING_PROFILE="guided_profile",
+                     **guidance_constants("guided"))
+    generated = dict(sensing_sources(cls, "guided", [trace_guidance]),
+                     **{"no_operations.h": interpreter_operations_h()})
+    return _build_twin(cls, dest, "guided_model.c",
+                       _sensing_config("guided", names, constants),
+                       NO_FILES + SENSING_FILES + ("brent.h",), generated, compiler, defaults)
+
+
 #: The native twins by model identifier.
 NATIVE_CONTROLLERS = {"NetworkOperatorController": build_network_operator_controller,
                       "ProgramController": build_program_controller,
                       "DragEstimator": build_drag_estimator,
-                      "SensedNetworkOperatorController": build_sensed_controller}
+                      "SensedNetworkOperatorController": build_sensed_controller,
+                      "GuidedNetworkOperatorController": build_guided_controller}
 
 
 def build_native_controllers(out_dir, names=None, compiler: str | None = None,

@@ -36,7 +36,7 @@ BINARY_C = {"add": "+", "sub": "-", "mul": "*", "lt": "<", "le": "<=", "gt": ">"
 C_FUNCTIONS = dict({f: f"py_{f}" for f in UNARY_MATH},
                    div="py_div", pow="py_pow", hypot="py_hypot", atan2="atan2", fabs="fabs",
                    copysign="copysign", ceil="py_ceil", floor="py_floor", isfinite="isfinite",
-                   isnan="isnan", isinf="isinf")
+                   isnan="isnan", isinf="isinf", to_double="(double)")
 
 class _TracedMath:
     """``math`` with traced values: see the module docstring."""
@@ -117,9 +117,9 @@ TRACED_MATH = _TracedMath()
 def _traced_float(v=0.0):
     """``float()`` that keeps a traced double (in a traced module)."""
     if isinstance(v, Sym):
-        if v.kind != "f":
+        if v.kind == "b":
             raise TraceError("float() of a traced truth value")
-        return v
+        return v if v.kind == "f" else active().op("to_double", v)   # an Integer variable
     return builtins.float(v)
 
 

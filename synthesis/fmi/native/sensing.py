@@ -14,7 +14,13 @@ state, ``r``/``iv``: the FMU's Reals and Integers):
   ``c/py_random.h``, only where Python does: ``noise > 0``);
 * ``<prefix>_estimate(r, iv, st, in, out)`` -- the FMU's ``drag_factor_log`` and
   ``drag_factor`` (``estimate`` with the current sample);
-* ``<prefix>_commit(r, iv, st, in)`` -- ``commit(a_drag, x, u_next)``: the new state.
+* ``<prefix>_commit(r, iv, st, in)`` -- ``commit(a_drag, x, u_next)``: the new state;
+* ``<prefix>_profile(r, iv, st, in, out)`` -- only for the density-profile fit
+  (:class:`~models.controllers.density_profile.ProfileEstimator`): ``profile(a_drag, x)``'s
+  ``kd``, ``lam`` and ``log_factor`` (what the guidance predicts with).
+
+The profile fit's state adds its nine sums to the constant-factor estimator's (:func:`state_names`)
+and its ``estimate`` also gives the FMU's outputs ``scale_height_error`` and ``drag_factor_sd``.
 
 The nominal drag of a sample is computed first (``in``: ``fail``, ``a_nom``); inside the traced
 ``estimate`` and ``commit`` a failed nominal raises where ``nominal_drag`` would, and the
@@ -26,18 +32,28 @@ from types import SimpleNamespace
 
 from descent_fmus.models.controllers.drag_estimator import DragFactorEstimator
 from descent_fmus.models.reentry import ReentryParams
-from descent_fmus.synthesis.fmi.native.plant_calls import Unit, using_unit
+from descent_fmus.synthesis.fmi.native.plant_calls import CALL_RENDERERS, Unit, using_unit
 from descent_fmus.synthesis.fmi.native.plant_codegen import Scope, render_function
 from descent_fmus.synthesis.fmi.native.plant_phases import _INTERCEPTORS, PlantCode
 from descent_fmus.synthesis.fmi.native.plant_shims import patched
 from descent_fmus.synthesis.fmi.native.plant_trace import (Source, Tracer, check_python,
                                                            explore, operand)
 
-__all__ = ["ST_NAMES", "SensingCode", "sensing_sources"]
+__all__ = ["ST_NAMES", "state_names", "SensingCode", "sensing_sources"]
 
 #: The estimator's state ``st`` (doubles): the weighted sums, the control of the last step, the
 #: accelerometer error of the next sample, the last navigated state (NaN: none yet).
 ST_NAMES = ("sw", "swz", "u_prev", "err", "last_x1", "last_x2", "last_x3", "last_x4")
+#: ... and the profile fit's sums (ProfileEstimator.s) after them
+PROFILE_ST = tuple(f"s{k + 1}" for k in range(9))
+#: outputs of ``estimate`` beyond drag_factor_log and drag_factor, where the FMU has them
+PROFILE_OUTPUTS = ("scale_height_error", "drag_factor_sd")
+
+
+def state_names(estimator_class) -> tuple:
+    """The names of the state ``st`` of the estimator class's C (the profile fit: its sums
+    after the constant-factor estimator's state)."""
+    return ST_NAMES + (PROFILE_ST if hasattr(estimator_class, "profile") else ())
 #: ``in`` of estimate/commit: the nominal drag failed (1) or not (0), its value, the control of
 #: the coming step (commit)
 IN_FAIL, IN_ANOM, IN_UNEXT = 0, 1, 2
@@ -62,12 +78,14 @@ class SensingCode:
         self.code = PlantCode(cls, prefix, structural={"noise_seed": 0})
         self.prefix, self.unit = prefix, self.code.unit
         self.ST, self.IN = Source("st"), Source("in")
+        self.estimator_class = cls.estimator_class
+        self.profiled = hasattr(self.estimator_class, "profile")
 
     # -- the traced estimator ------------------------------------------------------------------
     def _estimator(self, tracer) -> DragFactorEstimator:
         """An estimator on the traced state ``st`` and the FMU's traced parameters, built as
         its constructor builds it (without the generator: the C model draws)."""
-        est = object.__new__(DragFactorEstimator)
+        est = object.__new__(self.estimator_class)
         est.params = self.code.inst.params()
         est.model = ReentryParams()
         est.kd = est.model.constants()[1]
@@ -75,6 +93,9 @@ class SensingCode:
         est.sw, est.swz, est.u_prev, est._err = (st.sym(k) for k in range(4))
         est._last_x = tuple(st.sym(4 + k) for k in range(4))
         est.samples = 0
+        if self.profiled:
+            est._weights()
+            est.s = [st.sym(len(ST_NAMES) + k) for k in range(len(PROFILE_ST))]
         fail, a_nom = self.IN.sym(IN_FAIL), self.IN.sym(IN_ANOM)
 
         def nominal(x, u):          # computed before: raise where nominal_drag raised
@@ -86,6 +107,7 @@ class SensingCode:
 
     def _function(self, stem, signature, params, tracer, tree, leaf, sources) -> str:
         scope = Scope(tracer, sources=sources, allow_ctx=False)
+        scope.call_renderers = CALL_RENDERERS          # advance_to, in the guidance's step
         name = f"{self.prefix}_{stem}"
         self.unit.functions.append((name, render_function(signature.replace("@NAME@", name),
                                                           tree, scope, leaf, params), False))
@@ -131,9 +153,11 @@ class SensingCode:
         inst = self.code.inst
         getters = {v.name: v.getter for v in self.code.iface.of("output")}
 
+        names = ("drag_factor_log", "drag_factor") + (PROFILE_OUTPUTS if self.profiled else ())
+
         def body():
             inst._estimator = self._estimator(tracer)
-            return [(0, getters["drag_factor_log"]()), (1, getters["drag_factor"]())]
+            return [(k, getters[name]()) for k, name in enumerate(names)]
         tree = explore(tracer, body)
         return self._function("estimate", "int @NAME@(const double *r, const int *iv, "
                               "const double *st, const double *in, double *out)",
@@ -151,32 +175,54 @@ class SensingCode:
             est._draw = lambda: None
             inst.commit_sample(self.IN.sym(IN_UNEXT))
             state = (est.sw, est.swz, est.u_prev, est._err) + tuple(est._last_x)
-            return list(enumerate(state))
+            return list(enumerate(state + (tuple(est.s) if self.profiled else ())))
         tree = explore(tracer, body)
         return self._function("commit", "int @NAME@(const double *r, const int *iv, double *st, "
                               "const double *in)", ("r", "iv", "st", "in"), tracer, tree,
                               _writes("st"), self._fmu_sources())
 
-    def trace_all(self) -> "SensingCode":
+    def trace_profile(self) -> str:
+        """``profile(a_drag, nav)`` of the FMU's estimator -> kd, lam, log_factor in out."""
+        tracer = Tracer(f"{self.prefix} profile")
+        inst = self.code.inst
+
+        def body():
+            prof = self._estimator(tracer).profile(inst.a_drag, inst.nav_state())
+            return [(0, prof.kd), (1, prof.lam), (2, prof.log_factor)]
+        tree = explore(tracer, body)
+        return self._function("profile", "int @NAME@(const double *r, const int *iv, "
+                              "const double *st, const double *in, double *out)",
+                              ("r", "iv", "st", "in", "out"), tracer, tree, _writes("out"),
+                              self._fmu_sources())
+
+    def trace_all(self, more=()) -> "SensingCode":
+        """Trace the estimator's functions, then the callables ``more`` (each given this
+        object), in the same C unit."""
+        traces = [self.trace_check, self.trace_nominal, self.trace_draw, self.trace_estimate,
+                  self.trace_commit] + ([self.trace_profile] if self.profiled else [])
         with patched(_INTERCEPTORS), using_unit(self.unit):
             self.code._bind(self.code.inst)
-            for trace in (self.trace_check, self.trace_nominal, self.trace_draw,
-                          self.trace_estimate, self.trace_commit):
+            for trace in traces:
                 trace()
+            for trace in more:
+                trace(self)
         return self
 
 
-def sensing_sources(cls, prefix: str) -> dict:
+def sensing_sources(cls, prefix: str, more=()) -> dict:
     """``{"<prefix>_sensing.c": ..., "<prefix>_sensing.h": ...}`` of the estimator of the FMU
-    class ``cls`` (its C names ``<prefix>_*``)."""
-    code = SensingCode(cls, prefix).trace_all()
+    class ``cls`` (its C names ``<prefix>_*``), with the functions the callables ``more``
+    trace (each given the :class:`SensingCode`) in the same files."""
+    code = SensingCode(cls, prefix).trace_all(more)
+    code_names = state_names(code.estimator_class)
     P = prefix.upper()
     h = [f"/* {prefix}_sensing.h -- the drag-factor estimator of {cls.__name__}, generated by "
          f"descent-fmus from", " * models/controllers/drag_estimator.py "
          "(synthesis/fmi/native/sensing.py); regenerate rather than edit. */",
          f"#ifndef DESCENT_SENSING_{P}_H", f"#define DESCENT_SENSING_{P}_H", "",
-         f"#define {P}_N_ST {len(ST_NAMES)}  /* " + ", ".join(ST_NAMES) + " */", ""]
-    h += [text.split("\n", 1)[0] + ";" for _, text, _ in code.unit.functions]
+         f"#define {P}_N_ST {len(code_names)}  /* " + ", ".join(code_names) + " */", ""]
+    h += [text.split("\n", 1)[0] + ";" for _, text, static in code.unit.functions
+          if not static]
     c = [f"/* {prefix}_sensing.c -- generated by descent-fmus from the Python estimator; "
          f"regenerate rather than edit. */", "#include <math.h>", "#include <stdio.h>", "",
          '#include "plant_runtime.h"', f'#include "{prefix}_sensing.h"', ""]

@@ -85,18 +85,25 @@ static void no_controller_prepare(const ModelState *s, NOController *d)
             d->scaled = 1;
 }
 
-/* the outputs u[k] of the law for the current inputs x */
-static void no_controller_outputs(ModelState *s, const NOController *d)
+/* law(x): the clipped outputs u[k] of the law for the inputs x (nx values, unscaled) */
+static void no_controller_law(const ModelState *s, const NOController *d, const double *x,
+                              double *u)
 {
-    double *r = s->r, sources[NO_NX_MAX + NO_NQ_MAX], z[NO_NU_MAX];
+    const double *r = s->r;
+    double sources[NO_NX_MAX + NO_NQ_MAX], z[NO_NU_MAX];
     int k;
     for (k = 0; k < d->nx; k++)
-        sources[k] = d->scaled ? no_scale(r[VR_X + k], r[VR_XSCALE + k], r[VR_XOFFSET + k])
-                               : r[VR_X + k];
+        sources[k] = d->scaled ? no_scale(x[k], r[VR_XSCALE + k], r[VR_XOFFSET + k]) : x[k];
     memcpy(sources + d->nx, r + VR_Q, sizeof(double) * (size_t)d->nq);
     no_evaluate(&d->program, sources, z);
     for (k = 0; k < d->program.nu; k++)
-        r[VR_U + k] = no_clip(z[k], r[VR_UMIN + k], r[VR_UMAX + k]);
+        u[k] = no_clip(z[k], r[VR_UMIN + k], r[VR_UMAX + k]);
+}
+
+/* the outputs u[k] of the law for the current inputs x */
+static void no_controller_outputs(ModelState *s, const NOController *d)
+{
+    no_controller_law(s, d, s->r + VR_X, s->r + VR_U);
 }
 
 #endif

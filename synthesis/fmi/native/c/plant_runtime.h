@@ -114,9 +114,13 @@ static inline double py_div(double a, double b, int *err)
 /* a ** b (CPython's float power: the C library's pow and its special cases; an error where the
    result is NaN from numbers or infinite from finite numbers: negative base and fractional
    exponent, 0 ** negative, overflow) */
+static double (*volatile const pc_libm_pow)(double, double) = pow;
+
 static inline double py_pow(double a, double b, int *err)
 {
-    double r = pow(a, b);
+    /* through a pointer the compiler cannot see through: GCC would fold pow(x, 2.0) into x * x,
+       which rounds differently from the C library's pow (Python's x ** 2) now and then */
+    double r = pc_libm_pow(a, b);
     if ((isnan(r) && !isnan(a) && !isnan(b)) || (isinf(r) && isfinite(a) && isfinite(b)))
         *err = 1;
     return r;
