@@ -9,6 +9,7 @@ Tolerance: none -- every comparison of numbers is bitwise.
 """
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
@@ -155,6 +156,61 @@ def test_guided_twin_names_errors_as_the_python_controller(fmu_dir, guided_twin)
         assert "no re-planner" in log[0] and "pythonfmu" in log[0]
         for fmu, _ in made:
             start(fmu, {})                                # usable again after the errors
+    finally:
+        for fmu, _ in made:
+            fmu.freeInstance()
+
+
+# -- the NPC baseline (ReentryNPC) ------------------------------------------------------------
+@pytest.fixture(scope="module")
+def npc_twin(tmp_path_factory):
+    from descent_fmus.synthesis.fmi.native.controllers import build_npc_controller
+    return build_npc_controller(tmp_path_factory.mktemp("npc") / "ReentryNPC.fmu")
+
+
+def test_npc_twin_flies_as_the_pythonfmu_controller(fmu_dir, npc_twin, problem):
+    # 3 settings (default; accelerometer noise and bias; a 5 s cycle predicting with 1 s steps)
+    # x 4 dispersed samples, one with the scale height 6 % off: every final plant output and
+    # the control at every communication point equal, and the NPC's outputs at the end
+    from descent_fmus.synthesis.systems.reentry.guidance import NPC_WIRING
+    settings = [{}, {"noise": 0.05, "bias": 0.01, "noise_seed": 4},
+                {"cycle": 5.0, "dt_pred": 1.0}]
+    runs = []
+    for ctrl in (fmu_dir / "ReentryNPC.fmu", npc_twin):
+        with ClosedLoop(NPC_WIRING, fmu_dir / "Reentry.fmu", ctrl, record=("h", "load")) as loop:
+            runs.append([loop.run(s, v, record=True) for v in settings
+                         for s in _states(problem)])
+    for want, got in zip(*runs):
+        assert got.final == want.final
+        for name in ("ctrl.u", "h", "load"):
+            assert [bits(v) for v in got[name]] == [bits(v) for v in want[name]], name
+    assert {r.final["status"] for r in runs[0]} == {1}
+    # the NPC acts: a command other than 0 in every flight, re-solved cycle by cycle in some
+    assert all(np.any(r["ctrl.u"] != 0.0) for r in runs[0])
+    assert max(len(set(r["ctrl.u"])) for r in runs[0]) > 10
+
+
+#: bad parameters of the NPC: both FMUs refuse them with the same message
+BAD_NPC = [{"cycle": 0.0}, {"dt_pred": -1.0}, {"tol": 0.0}, {"max_iter": 0},
+           {"accel_sigma": 0.0}, {"bias_prior": -1.0}, {"noise": -0.5}]
+
+
+def test_npc_twin_names_errors_as_the_python_controller(fmu_dir, npc_twin):
+    made = []
+    try:
+        for path in (fmu_dir / "ReentryNPC.fmu", npc_twin):
+            log = []
+            made.append((load_slave(path, f"n{len(made)}", log), log))
+        for case in BAD_NPC:
+            said = []
+            for fmu, log in made:
+                del log[:]
+                with pytest.raises(Exception):
+                    start(fmu, case)
+                said.append(log[0].split(": ", 1)[1])
+            assert said[0] == said[1], case
+        for fmu, _ in made:
+            start(fmu, {})
     finally:
         for fmu, _ in made:
             fmu.freeInstance()

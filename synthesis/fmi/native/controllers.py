@@ -228,12 +228,31 @@ def build_guided_controller(dest, compiler: str | None = None,
                        NO_FILES + SENSING_FILES + ("brent.h",), generated, compiler, defaults)
 
 
+def build_npc_controller(dest, compiler: str | None = None,
+                         defaults: dict | None = None) -> Path:
+    """The native ``ReentryNPC`` (``c/npc_model.c``; the estimator's and the prediction's C
+    generated from the Python, :mod:`.sensing`, :mod:`.guidance`)."""
+    from descent_fmus.models.controllers.reentry_npc import ReentryNPC
+    from descent_fmus.synthesis.fmi.native.guidance import guidance_constants, trace_npc
+    from descent_fmus.synthesis.fmi.native.sensing import sensing_sources
+    names = {"VR_TOL": "tol", "VR_DTPRED": "dt_pred", "VR_CYCLE": "cycle", "VR_UOUT": "u",
+             "VR_MISS": "predicted_miss", "VR_SHE": "scale_height_error",
+             "VR_FACTOR_SD": "drag_factor_sd", "IX_MAXITER": "max_iter",
+             "IX_NPRED": "predictions"}
+    constants = dict(SENSING_PROFILE="npc_profile", **guidance_constants("npc"))
+    return _build_twin(ReentryNPC, dest, "npc_model.c", _sensing_config("npc", names, constants),
+                       SENSING_FILES + ("brent.h",), sensing_sources(ReentryNPC, "npc",
+                                                                      [trace_npc]),
+                       compiler, defaults)
+
+
 #: The native twins by model identifier.
 NATIVE_CONTROLLERS = {"NetworkOperatorController": build_network_operator_controller,
                       "ProgramController": build_program_controller,
                       "DragEstimator": build_drag_estimator,
                       "SensedNetworkOperatorController": build_sensed_controller,
-                      "GuidedNetworkOperatorController": build_guided_controller}
+                      "GuidedNetworkOperatorController": build_guided_controller,
+                      "ReentryNPC": build_npc_controller}
 
 
 def build_native_controllers(out_dir, names=None, compiler: str | None = None,

@@ -1,11 +1,12 @@
-"""The on-board prediction of S1's guided law in C, traced from its one Python definition.
+"""The on-board predictions of S1's guidance controllers in C, traced from their one Python definition.
 
-The native ``GuidedNetworkOperatorController`` (``c/guided_model.c``) runs the guidance cycle of
-:class:`models.controllers.reentry_npc.GuidedNetworkOperatorController` -- the correction c
-solved every cycle so that the predicted flight lands at Lf.  Its loops (the prediction's steps,
-Brent's root search, ``c/brent.h``) are written in C once; the arithmetic inside them is traced
-from the Python functions here, into the same C unit as the controller's estimator
-(:mod:`.sensing`):
+The native ``GuidedNetworkOperatorController`` (``c/guided_model.c``) and ``ReentryNPC``
+(``c/npc_model.c``) run the guidance cycle of :mod:`models.controllers.reentry_npc` -- every
+cycle, the correction c (the guided law) or the constant control u (the NPC) whose predicted
+flight lands at Lf.  Their loops (the prediction's steps, Brent's root search, ``c/brent.h``)
+are written in C once; the arithmetic inside them is traced from the Python functions here,
+into the same C unit as the controller's estimator (:mod:`.sensing`).  Of the guided law
+(:func:`trace_guidance`):
 
 * ``<prefix>_geometry(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.
   predicted_inputs` at the state ``in[0..3]`` on the line from ``h0_line`` (``in[4]``:
@@ -17,19 +18,25 @@ from the Python functions here, into the same C unit as the controller's estimat
   (``in``: x1..x4, u, kd, lam, dt) -> the state, the outcome (0 OK, 1 EVENT, 2 DIVERGED) and,
   at the EVENT, the down-range :func:`models.reentry.downrange` (else 0).
 
+Of the NPC (:func:`trace_npc`):
+
+* ``<prefix>_altitude(r, iv, in, out)`` -- :func:`models.reentry.altitude` of ``in[0..3]``;
+* ``<prefix>_range(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.predict_range`
+  with a constant control (``in``: x1..x4, u, kd, lam, dt): the predicted down-range at hf.
+
 :func:`guidance_constants` gives the C the nominal model's numbers it needs (lam, Lf, hf, the
 horizon, the range of a flight that does not reach hf).
 """
 from __future__ import annotations
 
-from descent_fmus.models.controllers.reentry_npc import (HORIZON, NOT_REACHED, predict_step,
-                                                         predicted_inputs)
+from descent_fmus.models.controllers.reentry_npc import (HORIZON, NOT_REACHED, predict_range,
+                                                         predict_step, predicted_inputs)
 from descent_fmus.models.integrators import DIVERGED, EVENT, OK
-from descent_fmus.models.reentry import ReentryParams, altitude, downrange
+from descent_fmus.models.reentry import U_BOUNDS, ReentryParams, altitude, downrange
 from descent_fmus.synthesis.fmi.native.plant_codegen import literal
 from descent_fmus.synthesis.fmi.native.plant_trace import Tracer, explore
 
-__all__ = ["trace_guidance", "guidance_constants", "OUTCOMES"]
+__all__ = ["trace_guidance", "trace_npc", "guidance_constants", "OUTCOMES"]
 
 #: the outcome codes of ``<prefix>_step`` (models.integrators' OK, EVENT, DIVERGED)
 OUTCOMES = {OK: 0, EVENT: 1, DIVERGED: 2}
@@ -80,6 +87,22 @@ def trace_guidance(code) -> None:
         _trace(code, stem, body)
 
 
+def trace_npc(code) -> None:
+    """Trace the NPC's two functions (module docstring) into the unit of ``code``, a
+    :class:`~.sensing.SensingCode` of ``ReentryNPC``."""
+    IN, model = code.IN, ReentryParams()
+
+    def height(tracer):
+        return [altitude(tuple(IN.sym(k) for k in range(4)), model.Rz)]
+
+    def range_(tracer):
+        return [predict_range(tuple(IN.sym(k) for k in range(4)), IN.sym(4), IN.sym(5), model,
+                              IN.sym(7), IN.sym(6))]
+
+    for stem, body in (("altitude", height), ("range", range_)):
+        _trace(code, stem, body)
+
+
 def guidance_constants(prefix: str) -> dict:
     """``model_config.h`` constants of the nominal model the guidance predicts with."""
     m = ReentryParams()
@@ -87,4 +110,6 @@ def guidance_constants(prefix: str) -> dict:
             "GUIDE_KD": literal(m.constants()[1]), "GUIDE_HORIZON": literal(HORIZON),
             "GUIDE_NOT_REACHED": literal(NOT_REACHED),
             "GUIDE_GEOMETRY": f"{prefix}_geometry", "GUIDE_CORRECTED": f"{prefix}_corrected",
-            "GUIDE_STEP": f"{prefix}_step"}
+            "GUIDE_STEP": f"{prefix}_step", "GUIDE_ALTITUDE": f"{prefix}_altitude",
+            "GUIDE_RANGE": f"{prefix}_range", "GUIDE_U_MIN": literal(U_BOUNDS[0]),
+            "GUIDE_U_MAX": literal(U_BOUNDS[1])}
