@@ -133,20 +133,34 @@ BAD = [{"correction_input": 9}, {"correction_input": -1}, {"correction_input": 3
        {"correction_gate": -2.0}, {"max_iter": 0}, {"scale_prior": -0.1}, {"nx": 9}]
 
 
+def _loaded(paths, tag):
+    """``[(fmu, log), ...]`` of the FMU files ``paths``, loaded."""
+    out = []
+    for k, path in enumerate(paths):
+        log = []
+        out.append((load_slave(path, f"{tag}{k}", log), log))
+    return out
+
+
+def _same_errors(made, cases) -> None:
+    """Every start-value case of ``cases`` is refused by both FMUs of ``made`` with the same
+    message; both usable again afterwards."""
+    for case in cases:
+        said = []
+        for fmu, log in made:
+            del log[:]
+            with pytest.raises(Exception):
+                start(fmu, case)
+            said.append(log[0].split(": ", 1)[1])      # after "<model or instance>: "
+        assert said[0] == said[1], case
+    for fmu, _ in made:
+        start(fmu, {})
+
+
 def test_guided_twin_names_errors_as_the_python_controller(fmu_dir, guided_twin):
-    made = []
+    made = _loaded((fmu_dir / "GuidedNetworkOperatorController.fmu", guided_twin), "g")
     try:
-        for path in (fmu_dir / "GuidedNetworkOperatorController.fmu", guided_twin):
-            log = []
-            made.append((load_slave(path, f"t{len(made)}", log), log))
-        for case in BAD:
-            said = []
-            for fmu, log in made:
-                del log[:]
-                with pytest.raises(Exception):
-                    start(fmu, case)
-                said.append(log[0].split(": ", 1)[1])
-            assert said[0] == said[1], case
+        _same_errors(made, BAD)
         # the re-planner is the pythonfmu FMU's alone: the twin refuses replan = 1 and says so
         (py, _), (c, log) = made
         start(py, {"replan": 1})
@@ -154,8 +168,7 @@ def test_guided_twin_names_errors_as_the_python_controller(fmu_dir, guided_twin)
         with pytest.raises(Exception):
             start(c, {"replan": 1})
         assert "no re-planner" in log[0] and "pythonfmu" in log[0]
-        for fmu, _ in made:
-            start(fmu, {})                                # usable again after the errors
+        start(c, {})                                      # usable again after the error
     finally:
         for fmu, _ in made:
             fmu.freeInstance()
@@ -196,21 +209,9 @@ BAD_NPC = [{"cycle": 0.0}, {"dt_pred": -1.0}, {"tol": 0.0}, {"max_iter": 0},
 
 
 def test_npc_twin_names_errors_as_the_python_controller(fmu_dir, npc_twin):
-    made = []
+    made = _loaded((fmu_dir / "ReentryNPC.fmu", npc_twin), "n")
     try:
-        for path in (fmu_dir / "ReentryNPC.fmu", npc_twin):
-            log = []
-            made.append((load_slave(path, f"n{len(made)}", log), log))
-        for case in BAD_NPC:
-            said = []
-            for fmu, log in made:
-                del log[:]
-                with pytest.raises(Exception):
-                    start(fmu, case)
-                said.append(log[0].split(": ", 1)[1])
-            assert said[0] == said[1], case
-        for fmu, _ in made:
-            start(fmu, {})
+        _same_errors(made, BAD_NPC)
     finally:
         for fmu, _ in made:
             fmu.freeInstance()

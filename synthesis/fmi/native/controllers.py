@@ -33,6 +33,8 @@ __all__ = ["slave_variables", "layout_config", "program_layout", "with_starts",
 NO_FILES = ("no_controller.h", "no_interp.c", "no_interp.h")
 #: ... and every twin that carries S1's drag-factor estimator (its C generated, :mod:`.sensing`)
 SENSING_FILES = ("estimator.h", "py_random.h", "plant_runtime.c", "plant_runtime.h")
+#: ... and every twin of S1's guidance (the cycle and the root search)
+GUIDANCE_FILES = ("guidance_cycle.h", "brent.h")
 
 
 def slave_variables(cls) -> tuple[list, str]:
@@ -225,7 +227,8 @@ def build_guided_controller(dest, compiler: str | None = None,
                      **{"no_operations.h": interpreter_operations_h()})
     return _build_twin(cls, dest, "guided_model.c",
                        _sensing_config("guided", names, constants),
-                       NO_FILES + SENSING_FILES + ("brent.h",), generated, compiler, defaults)
+                       NO_FILES + SENSING_FILES + GUIDANCE_FILES, generated, compiler,
+                       defaults)
 
 
 def build_npc_controller(dest, compiler: str | None = None,
@@ -241,7 +244,7 @@ def build_npc_controller(dest, compiler: str | None = None,
              "IX_NPRED": "predictions"}
     constants = dict(SENSING_PROFILE="npc_profile", **guidance_constants("npc"))
     return _build_twin(ReentryNPC, dest, "npc_model.c", _sensing_config("npc", names, constants),
-                       SENSING_FILES + ("brent.h",), sensing_sources(ReentryNPC, "npc",
+                       SENSING_FILES + GUIDANCE_FILES, sensing_sources(ReentryNPC, "npc",
                                                                       [trace_npc]),
                        compiler, defaults)
 

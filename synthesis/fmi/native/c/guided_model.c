@@ -24,18 +24,23 @@
 #include "no_controller.h"
 #include "estimator.h"
 #include "brent.h"
+#include "guidance_cycle.h"
 
 MODEL_TABLES(VR_SAMPLE)
 
 typedef struct {
     NOController law;
     EstimatorRun est;
-    double t, next;                /* _t (end of the last step), _next (next correction) */
+    GuidanceCycle gc;
     double c, miss;                /* _c, _miss */
     int n_pred;                    /* _n_pred */
-    int failed;                    /* a correction failed where Python raises */
-    char msg[PC_MSG];
 } Data;
+
+/* the cycle's callbacks' context: the model and the navigated state */
+typedef struct {
+    ModelState *s;
+    double x[4];
+} Now;
 
 /* what one prediction needs (the closure of GuidedNetworkOperatorController._predictor) */
 typedef struct {
@@ -83,25 +88,15 @@ void model_prepare(ModelState *s)
     Data *d = (Data *)s->data;
     no_controller_prepare(s, &d->law);
     est_run_prepare(&d->est, s->r, s->i);
-    d->t = d->next = 0.0;
+    gc_prepare(&d->gc);
     d->c = d->miss = 0.0;
     d->n_pred = 0;
-    d->failed = 0;
 }
 
 void model_reset(ModelState *s)
 {
     if (model_check(s) == NULL)
         model_prepare(s);
-}
-
-static void fail(Data *d, const char *what)
-{
-    if (!d->failed) {
-        d->failed = 1;
-        snprintf(d->msg, PC_MSG, "%s: an arithmetic error where the Python guidance raises "
-                 "(ArithmeticError, ValueError or IndexError)", what);
-    }
 }
 
 /* control(xp) of _predictor with the constant correction c: the law on the predicted state
@@ -178,13 +173,18 @@ static int predicted_miss(double c, void *ctx, double *miss)
     return PC_OK;
 }
 
-/* _correct(x): the profile, then the correction whose predicted miss is zero */
-static int correct(ModelState *s, Data *d, const double *x, double h_now)
+/* _correct(x): the profile, then the correction whose predicted miss is zero (h_now: the
+   altitude of x) */
+static int correct(void *ctx, double h_now)
 {
+    Now *now = (Now *)ctx;
+    ModelState *s = now->s;
+    Data *d = (Data *)s->data;
+    const double *x = now->x;
     Prediction p;
-    double in[3] = {0.0, 0.0, 0.0}, prof[3], bound = s->r[VR_CMAX], c, miss;
+    double in[3] = {0.0, 0.0, 0.0}, prof[3], bound = s->r[VR_CMAX];
     const int nx = d->law.nx, ei = s->i[IX_ESTIMATE], ci = s->i[IX_CORRECTION];
-    int k, n;
+    int k;
     est_nominal(&d->est.e, s->r, in);
     if (SENSING_PROFILE(s->r, s->i, d->est.e.st, in, prof) != PC_OK)
         return PC_ERROR;
@@ -202,38 +202,21 @@ static int correct(ModelState *s, Data *d, const double *x, double h_now)
     p.k_e = ei > 0 && ei <= nx ? ei - 1 : -1;
     p.k_c = ci - 1;
     p.reads = ci > 0 && ci <= nx;
-    if (br_solve_control(predicted_miss, &p, d->c, s->r[VR_TOL], s->i[IX_MAXITER], -bound,
-                         bound, &c, &miss, &n) != 0)
-        return PC_ERROR;
-    d->c = c;
-    d->miss = miss;
-    d->n_pred += n;
-    return PC_OK;
+    return gc_solve(predicted_miss, &p, s->r[VR_TOL], s->i[IX_MAXITER], -bound, bound, &d->c,
+                    &d->miss, &d->n_pred);
 }
 
-/* _maybe_correct(x, cycle): a correction at a communication point at or after the next
-   correction time, above hf; the next time moves on by whole cycles */
-static int maybe_correct(ModelState *s, Data *d, const double *x)
+/* altitude(x, Rz) of the navigated state (the geometry's out[3]) */
+static int altitude(void *ctx, double *h)
 {
+    Now *now = (Now *)ctx;
     double in[7] = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0}, out[4];
-    const double cycle = s->r[VR_CYCLE];
-    int k, err = 0;
-    if (!(d->t >= d->next - 1e-9))
-        return PC_OK;
+    int k;
     for (k = 0; k < 4; k++)
-        in[k] = x[k];
-    if (GUIDE_GEOMETRY(s->r, s->i, in, out) != PC_OK)   /* out[3]: altitude(x, Rz) */
+        in[k] = now->x[k];
+    if (GUIDE_GEOMETRY(now->s->r, now->s->i, in, out) != PC_OK)
         return PC_ERROR;
-    if (!(out[3] > GUIDE_HF))
-        return PC_OK;
-    if (correct(s, d, x, out[3]) != PC_OK)
-        return PC_ERROR;
-    {
-        double m = py_ceil((d->t - d->next) / cycle + 1e-9, &err);
-        if (err)
-            return PC_ERROR;
-        d->next += cycle * (m > 1.0 ? m : 1.0);
-    }
+    *h = out[3];
     return PC_OK;
 }
 
@@ -243,13 +226,16 @@ void model_outputs(ModelState *s)
     double *r = s->r, out[4];
     const int ei = s->i[IX_ESTIMATE], ci = s->i[IX_CORRECTION], nx = d->law.nx;
     const int reads = ci > 0 && ci <= nx, active = reads || r[VR_GAIN] != 0.0;
-    double x[4];
+    const double *x;
+    Now now;
     int k;
+    now.s = s;
     for (k = 0; k < 4; k++)
-        x[k] = r[VR_NAV + k];
-    if (active && !d->failed) {
-        if (maybe_correct(s, d, x) != PC_OK)
-            fail(d, "the guidance cycle");
+        now.x[k] = r[VR_NAV + k];
+    x = now.x;
+    if (active && !d->gc.failed) {
+        if (gc_maybe_correct(&d->gc, s->r[VR_CYCLE], altitude, correct, &now) != PC_OK)
+            gc_fail(&d->gc, "the guidance cycle");
         if (reads)
             r[VR_X + ci - 1] = d->c;
     }
@@ -262,7 +248,7 @@ void model_outputs(ModelState *s)
             r[VR_X + ei - 1] = out[0];
     }
     no_controller_outputs(s, &d->law);
-    if (active && r[VR_GAIN] != 0.0 && !d->failed) {
+    if (active && r[VR_GAIN] != 0.0 && !d->gc.failed) {
         double cin[8], cout[1];
         const double c = d->c;
         cin[0] = r[VR_U];
@@ -275,12 +261,12 @@ void model_outputs(ModelState *s)
             int err = 0;
             cin[6] = GUIDE_KD * py_exp(r[VR_Y3], &err);
             if (err)
-                fail(d, "the gated correction");
+                gc_fail(&d->gc, "the gated correction");
         }
-        if (!d->failed && GUIDE_CORRECTED(r, s->i, cin, cout) == PC_OK)
+        if (!d->gc.failed && GUIDE_CORRECTED(r, s->i, cin, cout) == PC_OK)
             r[VR_U] = cout[0];
         else
-            fail(d, "the correction");
+            gc_fail(&d->gc, "the correction");
     }
     r[VR_CORR] = d->c;
     r[VR_MISS] = d->miss;
@@ -292,7 +278,7 @@ void model_step(ModelState *s, double t, double h)
 {
     Data *d = (Data *)s->data;
     est_run_step(&d->est, s->r, s->i, s->r[VR_U]);
-    d->t = t + h;
+    d->gc.t = t + h;
 }
 
 const char *model_failure(const ModelState *s)
@@ -300,7 +286,7 @@ const char *model_failure(const ModelState *s)
     const Data *d = (const Data *)s->data;
     if (d == NULL)
         return NULL;
-    if (d->failed)
-        return d->msg;
+    if (d->gc.failed)
+        return d->gc.msg;
     return est_run_failure(&d->est);
 }

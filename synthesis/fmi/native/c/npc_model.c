@@ -20,17 +20,16 @@
 #include "model_config.h"
 #include "estimator.h"
 #include "brent.h"
+#include "guidance_cycle.h"
 
 MODEL_TABLES(VR_SAMPLE)
 
 typedef struct {
     EstimatorRun est;
-    double t, next;                /* _t (end of the last step), _next (next correction) */
+    GuidanceCycle gc;
     double u, miss;                /* _u, _miss */
     double cycle;                  /* _cycle: the cycle as prepared */
     int n_pred;                    /* _n_pred */
-    int failed;                    /* a correction failed where Python raises */
-    char msg[PC_MSG];
 } Data;
 
 /* what one prediction needs: the start state and the fitted profile */
@@ -38,6 +37,12 @@ typedef struct {
     const ModelState *s;
     double x[4], kd, lam;
 } Prediction;
+
+/* the cycle's callbacks' context: the model and the navigated state */
+typedef struct {
+    ModelState *s;
+    double x[4];
+} Now;
 
 static char message[PC_MSG];
 
@@ -52,11 +57,10 @@ void model_prepare(ModelState *s)
 {
     Data *d = (Data *)s->data;
     est_run_prepare(&d->est, s->r, s->i);
-    d->t = d->next = 0.0;
+    gc_prepare(&d->gc);
     d->u = d->miss = 0.0;
     d->cycle = s->r[VR_CYCLE];
     d->n_pred = 0;
-    d->failed = 0;
 }
 
 void model_reset(ModelState *s)
@@ -84,63 +88,47 @@ static int predicted_miss(double u, void *ctx, double *miss)
 }
 
 /* _correct(x): the profile, then the constant u whose predicted miss is zero */
-static int correct(ModelState *s, Data *d, const double *x)
+static int correct(void *ctx, double h)
 {
+    Now *now = (Now *)ctx;
+    ModelState *s = now->s;
+    Data *d = (Data *)s->data;
     Prediction p;
-    double in[3] = {0.0, 0.0, 0.0}, prof[3], u, miss;
-    int k, n;
+    double in[3] = {0.0, 0.0, 0.0}, prof[3];
+    int k;
+    (void)h;
     est_nominal(&d->est.e, s->r, in);
     if (SENSING_PROFILE(s->r, s->i, d->est.e.st, in, prof) != PC_OK)
         return PC_ERROR;
     p.s = s;
     for (k = 0; k < 4; k++)
-        p.x[k] = x[k];
+        p.x[k] = now->x[k];
     p.kd = prof[0];
     p.lam = prof[1];
-    if (br_solve_control(predicted_miss, &p, d->u, s->r[VR_TOL], s->i[IX_MAXITER], GUIDE_U_MIN,
-                         GUIDE_U_MAX, &u, &miss, &n) != 0)
-        return PC_ERROR;
-    d->u = u;
-    d->miss = miss;
-    d->n_pred += n;
-    return PC_OK;
+    return gc_solve(predicted_miss, &p, s->r[VR_TOL], s->i[IX_MAXITER], GUIDE_U_MIN,
+                    GUIDE_U_MAX, &d->u, &d->miss, &d->n_pred);
 }
 
-/* _maybe_correct(x, cycle) */
-static int maybe_correct(ModelState *s, Data *d, const double *x)
+/* altitude(x, Rz) of the navigated state */
+static int altitude(void *ctx, double *h)
 {
-    double h;
-    int err = 0;
-    if (!(d->t >= d->next - 1e-9))
-        return PC_OK;
-    if (GUIDE_ALTITUDE(s->r, s->i, x, &h) != PC_OK)
-        return PC_ERROR;
-    if (!(h > GUIDE_HF))
-        return PC_OK;
-    if (correct(s, d, x) != PC_OK)
-        return PC_ERROR;
-    {
-        double m = py_ceil((d->t - d->next) / d->cycle + 1e-9, &err);
-        if (err)
-            return PC_ERROR;
-        d->next += d->cycle * (m > 1.0 ? m : 1.0);
-    }
-    return PC_OK;
+    Now *now = (Now *)ctx;
+    return GUIDE_ALTITUDE(now->s->r, now->s->i, now->x, h);
 }
 
 /* the command of this communication point (_command) and the estimator's outputs */
 void model_outputs(ModelState *s)
 {
     Data *d = (Data *)s->data;
-    double *r = s->r, out[4], x[4];
+    double *r = s->r, out[4];
+    Now now;
     int k;
+    now.s = s;
     for (k = 0; k < 4; k++)
-        x[k] = r[VR_NAV + k];
-    if (!d->failed && maybe_correct(s, d, x) != PC_OK) {
-        d->failed = 1;
-        snprintf(d->msg, PC_MSG, "the guidance cycle: an arithmetic error where the Python "
-                 "guidance raises (ArithmeticError or ValueError)");
-    }
+        now.x[k] = r[VR_NAV + k];
+    if (!d->gc.failed
+            && gc_maybe_correct(&d->gc, d->cycle, altitude, correct, &now) != PC_OK)
+        gc_fail(&d->gc, "the guidance cycle");
     if (est_estimate(&d->est.e, r, s->i, out) == PC_OK) {
         r[VR_Y3] = out[0];
         r[VR_FACTOR] = out[1];
@@ -157,7 +145,7 @@ void model_step(ModelState *s, double t, double h)
 {
     Data *d = (Data *)s->data;
     est_run_step(&d->est, s->r, s->i, d->u);
-    d->t = t + h;
+    d->gc.t = t + h;
 }
 
 const char *model_failure(const ModelState *s)
@@ -165,7 +153,7 @@ const char *model_failure(const ModelState *s)
     const Data *d = (const Data *)s->data;
     if (d == NULL)
         return NULL;
-    if (d->failed)
-        return d->msg;
+    if (d->gc.failed)
+        return d->gc.msg;
     return est_run_failure(&d->est);
 }
