@@ -192,6 +192,7 @@ static int correct(void *ctx, double h_now)
     p.d = d;
     for (k = 0; k < 4; k++)
         p.x[k] = x[k];
+    memset(p.inputs, 0, sizeof p.inputs);
     for (k = 0; k < nx; k++)
         p.inputs[k] = s->r[VR_X + k];
     p.kd = prof[0];
