@@ -180,3 +180,27 @@ def test_a_run_stopped_while_refining_resumes_to_the_uninterrupted_result(fmu_di
                           cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr
     assert (out / "pareto.csv").read_text() == (tmp_path / "ref" / "pareto.csv").read_text()
+
+
+def test_a_stop_inside_an_import_still_ends_as_a_stop(monkeypatch, capsys):
+    # A SIGTERM handled while a C extension initialises (seen: matplotlib's ft2font imported to
+    # plot the front) comes out as that module's ImportError raised from RunInterrupted: the
+    # program still ends as a stopped run, 128 + 15 and its one line, not as a crash (exit 1)
+    import argparse
+    import signal
+
+    from descent_fmus.synthesis.cli import main as cli
+    from descent_fmus.synthesis.run.signals import RunInterrupted
+
+    def func(args):
+        try:
+            raise RunInterrupted(signal.SIGTERM, "writing the results")
+        except RunInterrupted as exc:
+            raise ImportError("initialization failed") from exc
+
+    class Parser:
+        def parse_args(self, argv):
+            return argparse.Namespace(command="synthesize", func=func)
+    monkeypatch.setattr(cli, "build_parser", lambda: Parser())
+    assert cli.main([]) == 143
+    assert "interrupted by SIGTERM: writing the results" in capsys.readouterr().err

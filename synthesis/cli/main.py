@@ -121,7 +121,14 @@ def main(argv=None, last_words: list | None = None) -> int:
     args = ap.parse_args(argv)
     name = args.command + (f" {args.action}" if getattr(args, "action", None) else "")
     try:
-        return int(args.func(args) or 0)
+        try:
+            return int(args.func(args) or 0)
+        except Exception as exc:
+            # a stop that landed inside a C extension's import comes out as its ImportError
+            stop = _interruption(exc, RunInterrupted)
+            if stop is not None and stop is not exc:
+                raise stop from None
+            raise
     except CliError as exc:
         print(f"descent-fmus {name}: error: {exc}", file=sys.stderr)
         return 2
@@ -144,6 +151,18 @@ def main(argv=None, last_words: list | None = None) -> int:
     except KeyboardInterrupt:
         print(f"descent-fmus {name}: interrupted", file=sys.stderr)
         return 130
+
+
+def _interruption(exc, kind):
+    """The ``kind`` exception in the cause/context chain of ``exc`` (itself included), or
+    None."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, kind):
+            return exc
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def entry() -> None:
