@@ -27,7 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from native_paths import machine, rates
+from native_paths import machine, print_rates, rates
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parent.parent
 GUIDED_LAW = ROOT / "synthesis" / "systems" / "reentry" / "guided_law.json"
 
 
-class Path_:
+class Flier:
     """A loop on two FMUs flying the samples in turn; ``rate(seconds)`` in flights/s."""
 
     def __init__(self, loop, states, values):
@@ -85,7 +85,7 @@ def main(argv=None):
              "native, Python master": ClosedLoop(problem.wiring, *twins),
              "native, C container (evaluator)": NativeContainerLoop(problem.wiring, *twins)}
     try:
-        paths = {name: Path_(loop, states, values) for name, loop in loops.items()}
+        paths = {name: Flier(loop, states, values) for name, loop in loops.items()}
         want = paths["pythonfmu, Python master"].finals
         for name, p in paths.items():
             assert p.finals == want, f"{name} flies differently"
@@ -102,13 +102,8 @@ def main(argv=None):
     if args.json:
         print(json.dumps(report, indent=1))
         return
-    print(f"S1 guided law over the 16 samples of reentry-guided, median of {args.rounds} "
-          f"interleaved rounds; {report['machine']}")
-    print(f"{'path':36s} {'flights/s':>10s} {'ms/flight':>10s}")
-    for name, r in measured.items():
-        print(f"{name:36s} {r:10.1f} {1e3 / r:10.3f}")
-    for name, r in report["ratios"].items():
-        print(f"  {name}: {r:.1f}x")
+    print_rates(f"S1 guided law over the 16 samples of reentry-guided, median of {args.rounds} "
+                f"interleaved rounds; {report['machine']}", measured, report["ratios"])
     if args.synthesis:
         print(f"synthesize reentry-guided (default budget, no export): "
               f"{report['synthesis_seconds (target <= 120)']:.1f} s")

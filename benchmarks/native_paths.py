@@ -155,6 +155,16 @@ def rates(paths: dict, seconds: float, rounds: int) -> dict:
     return {name: statistics.median(v) for name, v in got.items()}
 
 
+def print_rates(title: str, rates_: dict, ratios: dict) -> None:
+    """The table of flights/s and ms a flight per path, then the ratios."""
+    print(title)
+    print(f"{'path':36s} {'flights/s':>10s} {'ms/flight':>10s}")
+    for name, r in rates_.items():
+        print(f"{name:36s} {r:10.1f} {1e3 / r:10.3f}")
+    for name, r in ratios.items():
+        print(f"  {name}: {r:.1f}x")
+
+
 def long_run(problem, plant, ctrl, laws, flights: int) -> list:
     """``(flights so far, RSS [MB])`` at the start, every tenth of the run and at the end."""
     flyer = LawFlyer(problem, str(plant), str(ctrl))
@@ -214,13 +224,8 @@ def main(argv=None):
     if args.json:
         print(json.dumps(report, indent=1))
         return
-    print(f"S1 reentry, nominal flight, 16 distinct laws, median of {args.rounds} interleaved "
-          f"rounds; {report['machine']}")
-    print(f"{'path':36s} {'flights/s':>10s} {'ms/flight':>10s}")
-    for name, r in rates_.items():
-        print(f"{name:36s} {r:10.1f} {1e3 / r:10.3f}")
-    for name, r in report["ratios"].items():
-        print(f"  {name}: {r:.1f}x")
+    print_rates(f"S1 reentry, nominal flight, 16 distinct laws, median of {args.rounds} "
+                f"interleaved rounds; {report['machine']}", rates_, report["ratios"])
     print(f"evaluator's path: {path}; RSS over {args.long} flights [MB]: "
           + ", ".join(f"{k}: {m:.1f}" for k, m in rss))
 

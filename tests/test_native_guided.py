@@ -215,3 +215,16 @@ def test_npc_twin_names_errors_as_the_python_controller(fmu_dir, npc_twin):
     finally:
         for fmu, _ in made:
             fmu.freeInstance()
+
+
+def test_the_re_planner_flies_the_pythonfmu_controller(fmu_dir, problem):
+    # the twin refuses replan = 1 (above), so a run that sets it takes the pythonfmu FMUs and
+    # any other start values the native twins (where built, as build_fmus.py builds them)
+    from descent_fmus.synthesis.problems.runner import Runner
+    fmus = (fmu_dir / "Reentry.fmu", fmu_dir / "GuidedNetworkOperatorController.fmu")
+    if not (fmu_dir / "native" / "GuidedNetworkOperatorController.fmu").is_file():
+        pytest.skip("no native twins in the FMU folder")
+    assert Runner().choose(problem.wiring, *fmus, controller_values={"replan": 1})[0] == "master"
+    assert Runner().choose(problem.wiring, *fmus,
+                           controller_values={"replan": 0})[0] == "native-container"
+    assert Runner().choose(problem.wiring, *fmus)[0] == "native-container"

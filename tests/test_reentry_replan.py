@@ -145,3 +145,25 @@ def test_set_problem_options_draw_the_set_from_the_error_families():
         p.with_option("errors", "weather")
     with pytest.raises(ValueError, match="samples must be"):
         p.with_option("samples", "3")
+
+
+def test_family_study_keeps_each_options_flights_and_reads_them_back(fmu_dir, tmp_path,
+                                                                    monkeypatch):
+    # oracle: the first call's own rows -- a second call with the same option, family and set
+    # reads them back without flying; the same label with another law is flown again
+    from descent_fmus.synthesis.systems.reentry import family_study as fs
+    from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
+    args = dict(families=["spec"], samples=3, seed=7, fmu_dir=fmu_dir, npc=False,
+                oracle=False, basic=False, flown=tmp_path)
+    first = fs.family_study({"law": paper_basic_law()}, **args)
+    rows = first["scenarios"]["spec"]["results"]["law"]
+    assert len(rows) == 3 and len(list(tmp_path.glob("*.json"))) == 1
+
+    def no_flight(*a, **k):
+        raise AssertionError("flown again")
+    with monkeypatch.context() as m:
+        m.setattr(fs, "fly_law", no_flight)
+        again = fs.family_study({"law": paper_basic_law()}, **args)
+        assert again["scenarios"]["spec"]["results"]["law"] == rows
+        with pytest.raises(AssertionError, match="flown again"):
+            fs.family_study({"law": paper_law()}, **args)

@@ -49,14 +49,15 @@ PROFILE_ST = tuple(f"s{k + 1}" for k in range(9))
 #: outputs of ``estimate`` beyond drag_factor_log and drag_factor, where the FMU has them
 PROFILE_OUTPUTS = ("scale_height_error", "drag_factor_sd")
 
+#: ``in`` of estimate/commit: the nominal drag failed (1) or not (0), its value, the control of
+#: the coming step (commit)
+IN_FAIL, IN_ANOM, IN_UNEXT = 0, 1, 2
+
 
 def state_names(estimator_class) -> tuple:
     """The names of the state ``st`` of the estimator class's C (the profile fit: its sums
     after the constant-factor estimator's state)."""
     return ST_NAMES + (PROFILE_ST if hasattr(estimator_class, "profile") else ())
-#: ``in`` of estimate/commit: the nominal drag failed (1) or not (0), its value, the control of
-#: the coming step (commit)
-IN_FAIL, IN_ANOM, IN_UNEXT = 0, 1, 2
 
 
 def _writes(space: str):
@@ -79,7 +80,7 @@ class SensingCode:
         self.prefix, self.unit = prefix, self.code.unit
         self.ST, self.IN = Source("st"), Source("in")
         self.estimator_class = cls.estimator_class
-        self.profiled = hasattr(self.estimator_class, "profile")
+        self.profiled = len(state_names(self.estimator_class)) > len(ST_NAMES)
 
     # -- the traced estimator ------------------------------------------------------------------
     def _estimator(self, tracer) -> DragFactorEstimator:

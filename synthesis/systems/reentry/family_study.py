@@ -19,6 +19,7 @@ it; the load oracle is one more row (its J1) and one more box.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import re
 from dataclasses import asdict
@@ -55,6 +56,16 @@ def oracle_stats(limits) -> dict:
         out[LOAD_ORACLE] = {"J1_median": float(np.median(j1)), "J1_max": float(np.max(j1)),
                             "computed": len(j1)}
     return out
+
+
+def _kept_path(folder, stem: str, what) -> Path | None:
+    """Where the flights named ``stem`` of the option and scenario ``what`` (JSON-able: the
+    law's start values, its guidance parameters, the scenario) are kept in ``folder`` (None:
+    not kept); another law under the same name gets another file."""
+    if folder is None:
+        return None
+    key = hashlib.sha1(json.dumps(what, sort_keys=True, default=float).encode()).hexdigest()
+    return Path(folder) / (re.sub(r"[^A-Za-z0-9.]+", "-", stem).strip("-") + f"-{key[:10]}.json")
 
 
 def _kept(path: Path | None, fly) -> list:
@@ -97,16 +108,16 @@ def family_study(laws: dict, families, samples: int, seed: int, fmu_dir, npc: bo
         out["families"][name] = fam.description
         sset = family_samples(name, samples, seed, base)
         results = {}
-        kept = (lambda n: Path(flown) / (re.sub(r"[^A-Za-z0-9.]+", "-", f"{name} {samples} "
-                                                 f"{seed} {n}").strip("-") + ".json")) \
-            if flown else (lambda n: None)
+        def kept(label, what):
+            return _kept_path(flown, f"{name} {samples} {seed} {label}", [what, asdict(base)])
         for n, option in options.items():
             law, guidance = _with_guidance(option)
-            results[n] = _kept(kept(n), lambda: fly_law(law, sset, fmu_dir, guidance=guidance))
+            results[n] = _kept(kept(n, [law.start_values(), guidance]),
+                               lambda: fly_law(law, sset, fmu_dir, guidance=guidance))
             if progress is not None:
                 progress(name, n)
         if npc:
-            results[NPC] = _kept(kept(NPC), lambda: fly_npc(sset, fmu_dir))
+            results[NPC] = _kept(kept(NPC, None), lambda: fly_npc(sset, fmu_dir))
         sc = {"params": [asdict(s.plant) for s in sset], "sensing": [s.sensing for s in sset],
               "results": results,
               "stats": {n: stats(rows) for n, rows in results.items()}}

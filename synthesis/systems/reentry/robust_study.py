@@ -97,10 +97,10 @@ def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise
     from descent_fmus.synthesis.problems.runner import Runner
     rows = []
     sensed = wiring is not WIRING
-    # the native twins where they are built (the same flights, ~40x faster); the re-planner
-    # is the pythonfmu controller's alone
-    runner = Runner(native=False if controller_values.get("replan") else None)
-    loop = runner.load(wiring, fmu_dir / plant, fmu_dir / ctrl_fmu)
+    # the native twins where they are built and implement the options (the same flights,
+    # ~40x faster)
+    loop = Runner().load(wiring, fmu_dir / plant, fmu_dir / ctrl_fmu,
+                         controller_values=controller_values)
     try:
         # a progress bar on a terminal only (a re-planned flight costs ~1 s)
         for k, p in enumerate(tqdm(params, desc=f"{wiring.name} flights ({loop.path})",

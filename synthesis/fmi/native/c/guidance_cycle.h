@@ -75,4 +75,10 @@ static void gc_fail(GuidanceCycle *g, const char *what)
     }
 }
 
+/* model_failure: the cycle's failure, else ``other`` (the estimator's, or NULL) */
+static const char *gc_failure(const GuidanceCycle *g, const char *other)
+{
+    return g->failed ? g->msg : other;
+}
+
 #endif

@@ -151,9 +151,5 @@ void model_step(ModelState *s, double t, double h)
 const char *model_failure(const ModelState *s)
 {
     const Data *d = (const Data *)s->data;
-    if (d == NULL)
-        return NULL;
-    if (d->gc.failed)
-        return d->gc.msg;
-    return est_run_failure(&d->est);
+    return d == NULL ? NULL : gc_failure(&d->gc, est_run_failure(&d->est));
 }
