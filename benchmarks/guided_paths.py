@@ -27,7 +27,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from native_paths import machine, print_rates, rates
+from native_paths import fmus_and_twins, machine, print_rates, rates
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
@@ -74,11 +74,7 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     problem = get_problem("reentry-guided")
-    plant, ctrl = problem.fmu_paths(args.fmus)
-    twins = plant.parent / "native" / plant.name, ctrl.parent / "native" / ctrl.name
-    missing = [str(t) for t in twins if not t.is_file()]
-    if missing:
-        raise SystemExit(f"native FMUs missing: {', '.join(missing)} (python build_fmus.py)")
+    plant, ctrl, twins = fmus_and_twins(problem, args.fmus)
     values = NetworkOperator.load(GUIDED_LAW).start_values()
     states = problem.initial_states
     loops = {"pythonfmu, Python master": ClosedLoop(problem.wiring, plant, ctrl),

@@ -155,6 +155,18 @@ def rates(paths: dict, seconds: float, rounds: int) -> dict:
     return {name: statistics.median(v) for name, v in got.items()}
 
 
+def fmus_and_twins(problem, folder: Path) -> tuple:
+    """``(plant, controller, (native plant, native controller))`` of the problem's FMUs in
+    ``folder``; exits saying what to build if a twin is missing."""
+    from descent_fmus.synthesis.fmi.native_loop import native_fmus
+    plant, ctrl = problem.fmu_paths(folder)
+    twins = native_fmus(problem.wiring, plant, ctrl)
+    if twins is None:
+        raise SystemExit(f"native FMUs of {plant.name}, {ctrl.name} missing in "
+                         f"{plant.parent / 'native'} (python build_fmus.py)")
+    return plant, ctrl, twins
+
+
 def print_rates(title: str, rates_: dict, ratios: dict) -> None:
     """The table of flights/s and ms a flight per path, then the ratios."""
     print(title)
@@ -192,11 +204,7 @@ def main(argv=None):
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     problem = get_problem("reentry")
-    plant, ctrl = problem.fmu_paths(args.fmus)
-    twins = plant.parent / "native" / plant.name, ctrl.parent / "native" / ctrl.name
-    missing = [str(t) for t in twins if not t.is_file()]
-    if missing:
-        raise SystemExit(f"native FMUs missing: {', '.join(missing)} (python build_fmus.py)")
+    plant, ctrl, twins = fmus_and_twins(problem, args.fmus)
     laws = s1_laws()
     with tempfile.TemporaryDirectory(prefix="native_paths_") as tmp:
         paths = {"pythonfmu, Python master": Master(problem, plant, ctrl, laws),

@@ -34,6 +34,8 @@ __all__ = ["slave_variables", "layout_config", "program_layout", "with_starts",
 NO_FILES = ("no_controller.h", "no_interp.c", "no_interp.h")
 #: ... and every twin that carries S1's drag-factor estimator (its C generated, :mod:`.sensing`)
 SENSING_FILES = ("estimator.h", "py_random.h", "plant_runtime.c", "plant_runtime.h")
+#: ... and every twin of a law reading the estimate (the sensed and the guided controller)
+SENSED_FILES = NO_FILES + SENSING_FILES + ("sensed_controller.h",)
 #: ... and every twin of S1's guidance (the cycle and the root search)
 GUIDANCE_FILES = ("guidance_cycle.h", "brent.h")
 
@@ -203,7 +205,7 @@ def build_sensed_controller(dest, compiler: str | None = None,
                      **{"no_operations.h": interpreter_operations_h()})
     return _build_twin(cls, dest, "sensed_model.c",
                        _sensing_config("sensed", names, constants),
-                       NO_FILES + SENSING_FILES, generated, compiler, defaults)
+                       SENSED_FILES, generated, compiler, defaults)
 
 
 def build_guided_controller(dest, compiler: str | None = None,
@@ -228,7 +230,7 @@ def build_guided_controller(dest, compiler: str | None = None,
                      **{"no_operations.h": interpreter_operations_h()})
     return _build_twin(cls, dest, "guided_model.c",
                        _sensing_config("guided", names, constants),
-                       NO_FILES + SENSING_FILES + GUIDANCE_FILES, generated, compiler,
+                       SENSED_FILES + GUIDANCE_FILES, generated, compiler,
                        defaults)
 
 

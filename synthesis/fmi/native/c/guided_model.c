@@ -21,8 +21,7 @@
 
 #include "native_model.h"
 #include "model_config.h"
-#include "no_controller.h"
-#include "estimator.h"
+#include "sensed_controller.h"
 #include "brent.h"
 #include "guidance_cycle.h"
 
@@ -61,14 +60,8 @@ static char message[PC_MSG];
 const char *model_check(const ModelState *s)
 {
     const int ei = s->i[IX_ESTIMATE], ci = s->i[IX_CORRECTION];
-    if (no_controller_check(s, &((Data *)s->data)->law, message, sizeof message) != NULL)
+    if (sensed_controller_check(s, &((Data *)s->data)->law, message, sizeof message) != NULL)
         return message;
-    if (est_check(s->r, s->i, message) != NULL)
-        return message;
-    if (ei < 0 || ei > NO_NX_MAX) {
-        snprintf(message, sizeof message, "estimate_input = %d outside 0..%d", ei, NO_NX_MAX);
-        return message;
-    }
     if (ci < 0 || ci > NO_NX_MAX) {
         snprintf(message, sizeof message, "correction_input = %d outside 0..%d", ci, NO_NX_MAX);
         return message;
@@ -86,8 +79,7 @@ size_t model_data_size(void) { return sizeof(Data); }
 void model_prepare(ModelState *s)
 {
     Data *d = (Data *)s->data;
-    no_controller_prepare(s, &d->law);
-    est_run_prepare(&d->est, s->r, s->i);
+    sensed_controller_prepare(s, &d->law, &d->est);
     gc_prepare(&d->gc);
     d->c = d->miss = 0.0;
     d->n_pred = 0;

@@ -11,8 +11,7 @@
 
 #include "native_model.h"
 #include "model_config.h"
-#include "no_controller.h"
-#include "estimator.h"
+#include "sensed_controller.h"
 
 MODEL_TABLES(VR_SAMPLE)
 
@@ -23,20 +22,10 @@ typedef struct {
 
 static char message[PC_MSG];
 
-/* the generic controller's checks, then the estimator's parameters, then estimate_input (the
-   order of SensedNetworkOperatorController.check_parameters) */
+/* SensedNetworkOperatorController.check_parameters */
 const char *model_check(const ModelState *s)
 {
-    const int ei = s->i[IX_ESTIMATE];
-    if (no_controller_check(s, &((Data *)s->data)->law, message, sizeof message) != NULL)
-        return message;
-    if (est_check(s->r, s->i, message) != NULL)
-        return message;
-    if (ei < 0 || ei > NO_NX_MAX) {
-        snprintf(message, sizeof message, "estimate_input = %d outside 0..%d", ei, NO_NX_MAX);
-        return message;
-    }
-    return NULL;
+    return sensed_controller_check(s, &((Data *)s->data)->law, message, sizeof message);
 }
 
 size_t model_data_size(void) { return sizeof(Data); }
@@ -44,8 +33,7 @@ size_t model_data_size(void) { return sizeof(Data); }
 void model_prepare(ModelState *s)
 {
     Data *d = (Data *)s->data;
-    no_controller_prepare(s, &d->law);
-    est_run_prepare(&d->est, s->r, s->i);
+    sensed_controller_prepare(s, &d->law, &d->est);
 }
 
 void model_reset(ModelState *s)
