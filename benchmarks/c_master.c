@@ -1,131 +1,73 @@
-/* c_master.c -- a closed loop of two FMI 2.0 co-simulation FMUs in plain C (no Python in the
- * process): the pure-C reference of benchmarks/native_paths.py.
- *
- * The master algorithm of synthesis/fmi/closed_loop.py and of fmpy's container FMU (Gauss-Seidel
- * on the grid t_k = k h): read the plant outputs y(t_k), set them as controller inputs, read
- * u_k = phi(y(t_k)), set it as plant input, doStep both over [t_k, t_k + h].  A flight resets
- * both FMUs, sets the start values, initialises and steps to the stop time (the plants freeze
- * once their status is non-zero, as in the container path).
+/* c_master.c -- flights of a closed loop of two FMI 2.0 co-simulation FMUs with no Python in the
+ * process: the pure-C reference of benchmarks/native_paths.py.  The flights are those of the
+ * evaluator's C master (dm_fly of synthesis/fmi/native/c/master.c, compiled in), driven from
+ * a text file instead of Python.
  *
  *   c_master PLANT.so PLANT_GUID CTRL.so CTRL_GUID SPEC FLIGHTS
  *
  * SPEC is a text file of lines "<p|c> <R|I> <vr> <value>" (start values of the plant or the
  * controller, values as C99 hexadecimal floats or integers), "y <plant vr> <controller vr>"
  * (a plant output to a controller input), "u <controller vr> <plant vr>", "o <plant vr>" (a
- * Real output printed at the end), "h <step>" and "t <stop time>".  Prints the outputs of the
- * last flight (hexadecimal floats, one line) and "seconds_per_flight <s>" on stderr.
+ * Real output printed at the end), "h <step>", "t <stop time>" and
+ * "s <type 1-3> <vr> <op 0-2> <value> <check every>" (the stop condition, as dm_wire takes it).
+ * Prints the outputs of the last flight (hexadecimal floats, one line) and
+ * "seconds_per_flight <s>" on stderr.
  *
- * Build: cc -std=c99 -O2 -o c_master c_master.c -ldl
+ * Build: cc -std=c99 -O2 -I synthesis/fmi/native/c -o c_master benchmarks/c_master.c \
+ *            synthesis/fmi/native/c/master.c -ldl -lm
  */
 #define _POSIX_C_SOURCE 199309L
-#include <dlfcn.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
 
-typedef void *Component;
-typedef unsigned int VR;
-typedef struct {
-    void (*logger)(void *, const char *, int, const char *, const char *, ...);
-    void *(*allocate)(size_t, size_t);
-    void (*free)(void *);
-    void *step_finished;
-    void *environment;
-} Callbacks;
+#include "master.h"
 
-typedef struct {
-    void *lib;
-    Component c;
-    Component (*instantiate)(const char *, int, const char *, const char *, const Callbacks *,
-                             int, int);
-    int (*setup)(Component, int, double, double, int, double);
-    int (*enter)(Component), (*exit_init)(Component), (*reset)(Component);
-    int (*set_real)(Component, const VR *, size_t, const double *);
-    int (*get_real)(Component, const VR *, size_t, double *);
-    int (*set_int)(Component, const VR *, size_t, const int *);
-    int (*step)(Component, double, double, int);
-    VR rvr[4096], ivr[4096];
-    double rval[4096];
-    int ival[4096], nr, ni;
-} Fmu;
-
-static void logger(void *env, const char *name, int status, const char *category,
-                   const char *message, ...)
-{
-    (void)env;
-    fprintf(stderr, "[%s %d %s] %s\n", name, status, category, message);
-}
-
-#define SYM(f, field, name) \
-    if ((*(void **)&(f)->field = dlsym((f)->lib, name)) == NULL) { \
-        fprintf(stderr, "missing %s\n", name); exit(3); }
-
-static void load(Fmu *f, const char *path, const char *guid, const char *name)
-{
-    static Callbacks cb = {logger, calloc, free, NULL, NULL};
-    if ((f->lib = dlopen(path, RTLD_NOW | RTLD_LOCAL)) == NULL) {
-        fprintf(stderr, "dlopen: %s\n", dlerror());
-        exit(3);
-    }
-    SYM(f, instantiate, "fmi2Instantiate")
-    SYM(f, setup, "fmi2SetupExperiment")
-    SYM(f, enter, "fmi2EnterInitializationMode")
-    SYM(f, exit_init, "fmi2ExitInitializationMode")
-    SYM(f, reset, "fmi2Reset")
-    SYM(f, set_real, "fmi2SetReal")
-    SYM(f, get_real, "fmi2GetReal")
-    SYM(f, set_int, "fmi2SetInteger")
-    SYM(f, step, "fmi2DoStep")
-    if ((f->c = f->instantiate(name, 1, guid, "", &cb, 0, 0)) == NULL)
-        exit(4);
-}
-
-static int start(Fmu *f, double t_end)
-{
-    return f->reset(f->c) | f->set_real(f->c, f->rvr, (size_t)f->nr, f->rval)
-           | f->set_int(f->c, f->ivr, (size_t)f->ni, f->ival)
-           | f->setup(f->c, 0, 0.0, 0.0, 1, t_end) | f->enter(f->c) | f->exit_init(f->c);
-}
+#define MAXV 4096
 
 int main(int argc, char **argv)
 {
-    static Fmu plant, ctrl;
-    VR y_p[64], y_c[64], u_c[64], u_p[64], out[64];
-    double y[64], u[64], o[64], h = 1.0, t_end = 300.0;
-    int ny = 0, nu = 0, no = 0, flights, n, k, status = 0;
-    char kind, type, line[256];
+    static fmi2ValueReference rvr[2][MAXV], ivr[2][MAXV], y_p[64], y_c[64], u_c[64], u_p[64],
+        out[64];
+    static double rval[2][MAXV], o[64];
+    static int ival[2][MAXV];
+    size_t nr[2] = {0, 0}, ni[2] = {0, 0}, ny = 0, nu = 0, no = 0;
+    double h = 1.0, t_end = 300.0, stop_value = 0.0;
+    int stop_type = 0, stop_op = 0, stopped, flights;
+    unsigned stop_vr = 0;
+    long check_every = 1, steps;
+    char line[256];
     struct timespec t0, t1;
+    DmMaster *m;
     FILE *spec;
     if (argc != 7) {
         fprintf(stderr, "usage: c_master PLANT.so GUID CTRL.so GUID SPEC FLIGHTS\n");
         return 2;
     }
-    load(&plant, argv[1], argv[2], "plant");
-    load(&ctrl, argv[3], argv[4], "controller");
     if ((spec = fopen(argv[5], "r")) == NULL)
         return 2;
     while (fgets(line, sizeof line, spec)) {
         unsigned a, b;
-        char value[128];
-        Fmu *f;
-        if (sscanf(line, "%c %c %u %127s", &kind, &type, &a, value) == 4 && (kind == 'p' || kind == 'c')) {
-            f = kind == 'p' ? &plant : &ctrl;
+        char kind, type, value[128];
+        if (sscanf(line, "%c %c %u %127s", &kind, &type, &a, value) == 4
+            && (kind == 'p' || kind == 'c')) {
+            int f = kind == 'c';
             if (type == 'R') {
-                f->rvr[f->nr] = a;
-                f->rval[f->nr++] = strtod(value, NULL);
+                rvr[f][nr[f]] = a;
+                rval[f][nr[f]++] = strtod(value, NULL);
             } else {
-                f->ivr[f->ni] = a;
-                f->ival[f->ni++] = atoi(value);
+                ivr[f][ni[f]] = a;
+                ival[f][ni[f]++] = atoi(value);
             }
         } else if (sscanf(line, "y %u %u", &a, &b) == 2) {
-            y_p[ny] = a;
-            y_c[ny++] = b;
+            y_p[ny] = a, y_c[ny++] = b;
         } else if (sscanf(line, "u %u %u", &a, &b) == 2) {
-            u_c[nu] = a;
-            u_p[nu++] = b;
+            u_c[nu] = a, u_p[nu++] = b;
         } else if (sscanf(line, "o %u", &a) == 1) {
             out[no++] = a;
+        } else if (sscanf(line, "s %d %u %d %lf %ld", &stop_type, &stop_vr, &stop_op,
+                          &stop_value, &check_every) == 5) {
         } else if (line[0] == 'h') {
             h = strtod(line + 1, NULL);
         } else if (line[0] == 't') {
@@ -134,31 +76,30 @@ int main(int argc, char **argv)
     }
     fclose(spec);
     flights = atoi(argv[6]);
-    n = (int)(t_end / h + 0.5);
-    clock_gettime(CLOCK_MONOTONIC, &t0);
-    for (int flight = 0; flight < flights; flight++) {
-        status |= start(&plant, t_end) | start(&ctrl, t_end);
-        for (k = 0; k <= n; k++) {
-            const double t = k * h;
-            status |= plant.get_real(plant.c, y_p, (size_t)ny, y)
-                      | ctrl.set_real(ctrl.c, y_c, (size_t)ny, y)
-                      | ctrl.get_real(ctrl.c, u_c, (size_t)nu, u)
-                      | plant.set_real(plant.c, u_p, (size_t)nu, u);
-            if (k == n)
-                break;
-            status |= plant.step(plant.c, t, h, 1) | ctrl.step(ctrl.c, t, h, 1);
-        }
-        if (status > 1) {
-            fprintf(stderr, "an FMU call failed in flight %d\n", flight);
-            return 5;
-        }
+    m = dm_open(argv[1], argv[2], "", argv[3], argv[4], "");
+    if (m == NULL || dm_message(m)[0]
+        || dm_wire(m, ny, y_p, y_c, nu, u_c, u_p, h, stop_type, stop_vr, stop_op, stop_value,
+                   check_every)) {
+        fprintf(stderr, "c_master: %s\n", m ? dm_message(m) : "out of memory");
+        return 3;
     }
-    clock_gettime(CLOCK_MONOTONIC, &t1);
-    plant.get_real(plant.c, out, (size_t)no, o);
-    for (k = 0; k < no; k++)
+    {
+        const DmValues pv = {nr[0], rvr[0], rval[0], ni[0], ivr[0], ival[0]};
+        const DmValues cv = {nr[1], rvr[1], rval[1], ni[1], ivr[1], ival[1]};
+        const DmOutputs ov = {no, 0, 0, out, NULL, NULL, o, NULL, NULL};
+        clock_gettime(CLOCK_MONOTONIC, &t0);
+        for (int flight = 0; flight < flights; flight++)
+            if (dm_fly(m, t_end, &pv, &cv, &ov, &steps, &stopped)) {
+                fprintf(stderr, "c_master: flight %d: %s\n", flight, dm_message(m));
+                return 5;
+            }
+        clock_gettime(CLOCK_MONOTONIC, &t1);
+    }
+    for (size_t k = 0; k < no; k++)
         printf(k ? " %a" : "%a", o[k]);
     printf("\n");
     fprintf(stderr, "seconds_per_flight %.9g\n",
             ((t1.tv_sec - t0.tv_sec) + 1e-9 * (t1.tv_nsec - t0.tv_nsec)) / flights);
+    dm_close(m);
     return 0;
 }

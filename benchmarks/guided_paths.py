@@ -6,7 +6,8 @@ path flying the samples in turn:
 
 1. pythonfmu plant + pythonfmu ``GuidedNetworkOperatorController`` through the Python master;
 2. the native twins (``fmus/native/``) through the Python master;
-3. the native twins in fmpy's container FMU, one call per flight (the evaluator's path).
+3. the native twins in fmpy's container FMU, one call per flight;
+4. the native twins under the C master, one call per flight (the evaluator's path).
 
 The paths are measured in interleaved rounds (the median of each).  Every path's final outputs
 are checked equal first.  Then, with ``--synthesis``, the default ``synthesize reentry-guided``
@@ -30,6 +31,7 @@ from pathlib import Path
 from native_paths import fmus_and_twins, machine, print_rates, rates
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop
 from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
@@ -79,7 +81,8 @@ def main(argv=None):
     states = problem.initial_states
     loops = {"pythonfmu, Python master": ClosedLoop(problem.wiring, plant, ctrl),
              "native, Python master": ClosedLoop(problem.wiring, *twins),
-             "native, C container (evaluator)": NativeContainerLoop(problem.wiring, *twins)}
+             "native, fmpy container": NativeContainerLoop(problem.wiring, *twins),
+             "native, C master (evaluator)": CMasterLoop(problem.wiring, *twins)}
     try:
         paths = {name: Flier(loop, states, values) for name, loop in loops.items()}
         want = paths["pythonfmu, Python master"].finals

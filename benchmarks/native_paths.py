@@ -2,16 +2,18 @@
 
 1. pythonfmu plant + pythonfmu controller through the Python master (``ClosedLoop``);
 2. the native twins (``fmus/native/``) through the Python master;
-3. the native twins in fmpy's container FMU, one call per flight -- the evaluator's path, timed
-   as the evaluator flies a law: ``LawFlyer.fly`` (the law's start values, the run, the
-   objectives) over a set of distinct laws;
-4. pure C: the same two native FMUs stepped by a C master (``benchmarks/c_master.c``, no Python
-   in the process).
+3. the native twins in fmpy's container FMU, one call per flight, timed as the evaluator flies a
+   law: ``LawFlyer.fly`` (the law's start values, the run, the objectives) over a set of distinct
+   laws;
+4. the native twins under the C master, one call per flight -- the evaluator's path, timed the
+   same way;
+5. pure C: the same two native FMUs and the same C master driven by ``benchmarks/c_master.c``
+   (no Python in the process).
 
 Then a worker's resident size over a long run: ``--long`` flights (default 100 000) through the
 evaluator's native path, the RSS printed at the start (after a warm-up), every tenth and at the
 end.  The paths are measured in interleaved rounds (the median of each): a machine whose load
-changes slows them alike.  Targets: path 3 >= 50x path 1 and within 2x of path 4; the RSS flat.
+changes slows them alike.  Targets: path 4 >= 50x path 1 and within 2x of path 5; the RSS flat.
 
     python benchmarks/native_paths.py [--fmus DIR] [--long N] [--json]
 
@@ -31,8 +33,10 @@ from pathlib import Path
 
 from fmpy import extract, read_model_description
 
+from descent_fmus.synthesis.fmi.c_master_loop import _STOP_OPS, _STOP_TYPES
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
-from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.build import C_DIR, COMPILE_FLAGS, find_compiler
+from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.run.flights import LawFlyer
@@ -90,11 +94,15 @@ class Master:
 
 
 class Evaluator:
-    """``LawFlyer.fly`` (the evaluator's per-process flyer) on the problem's FMUs."""
+    """``LawFlyer.fly`` (the evaluator's per-process flyer) on the problem's FMUs; ``loop``: fly
+    through that loop instead of the one the runner chooses."""
 
-    def __init__(self, problem, plant, ctrl, laws):
+    def __init__(self, problem, plant, ctrl, laws, loop=None):
         self.laws = laws
         self.flyer = LawFlyer(problem, str(plant), str(ctrl))
+        if loop is not None:
+            self.flyer.loop.close()
+            self.flyer.loop = loop
         self.path = self.flyer.loop.path
         self.f = self.flyer.fly(laws[0])[0].f
 
@@ -107,12 +115,14 @@ class Evaluator:
 
 
 class CMaster:
-    """The C master (``benchmarks/c_master.c``) on the two native FMUs, the first law."""
+    """The C master driven by ``benchmarks/c_master.c`` on the two native FMUs, the first
+    law."""
 
     def __init__(self, problem, plant_twin, ctrl_twin, law, work: Path):
         self.exe = work / "c_master"
-        subprocess.run([find_compiler(), "-std=c99", "-O2", "-o", str(self.exe),
-                        str(HERE / "c_master.c"), "-ldl"], check=True)
+        subprocess.run([find_compiler(), *COMPILE_FLAGS[1:4], "-I", str(C_DIR), "-o",
+                        str(self.exe), str(HERE / "c_master.c"), str(C_DIR / "master.c"),
+                        "-ldl", "-lm"], check=True)
         self.libs, lines, var = [], [], {}
         for tag, path, values in (("p", plant_twin, problem.initial_states[0]),
                                   ("c", ctrl_twin, law.start_values())):
@@ -131,6 +141,10 @@ class CMaster:
         lines += [f"u {cv[a].valueReference} {pv[b].valueReference}" for a, b in w.to_plant]
         lines += [f"o {pv[n].valueReference}" for n in ("L", "load_max")]
         lines += [f"h {float.hex(w.step)}", f"t {float.hex(w.stop_time)}"]
+        if w.stop is not None:
+            sv = pv[w.stop.output]
+            lines.append(f"s {_STOP_TYPES[sv.type]} {sv.valueReference} {_STOP_OPS[w.stop.op]} "
+                         f"{w.stop.value!r} {w.stop.check_every}")
         self.spec = work / "spec.txt"
         self.spec.write_text("\n".join(lines) + "\n")
         self.per_flight, self.final = 1e-3, None
@@ -209,25 +223,30 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="native_paths_") as tmp:
         paths = {"pythonfmu, Python master": Master(problem, plant, ctrl, laws),
                  "native, Python master": Master(problem, *twins, laws),
-                 "native, C container (evaluator)": Evaluator(problem, plant, ctrl, laws),
+                 "native, fmpy container": Evaluator(
+                     problem, plant, ctrl, laws, NativeContainerLoop(problem.wiring, *twins)),
+                 "native, C master (evaluator)": Evaluator(problem, plant, ctrl, laws),
                  "native, pure C master": CMaster(problem, *twins, laws[0], Path(tmp))}
         want = paths["pythonfmu, Python master"].final
         assert paths["native, Python master"].final == want, "the twins fly differently"
         assert paths["native, pure C master"].final == [want["L"], want["load_max"]], \
             "the C master flies differently"
         measured = rates(paths, args.seconds * len(paths), args.rounds)
-        ev = paths["native, C container (evaluator)"]
+        ev = paths["native, C master (evaluator)"]
         path, f = ev.path, ev.f
-        ev.flyer.close()
+        assert paths["native, fmpy container"].f == f, "the container flies differently"
+        for name in ("native, fmpy container", "native, C master (evaluator)"):
+            paths[name].flyer.close()
         for name in ("pythonfmu, Python master", "native, Python master"):
             paths[name].loop.close()
     rss = long_run(problem, plant, ctrl, laws, args.long)
     rates_ = measured
-    e, py = rates_["native, C container (evaluator)"], rates_["pythonfmu, Python master"]
+    e, py = rates_["native, C master (evaluator)"], rates_["pythonfmu, Python master"]
     report = {"machine": machine(), "evaluator_path": path, "flights_per_s": rates_,
               "ratios": {"evaluator / pythonfmu (target >= 50)": e / py,
                          "pure C / evaluator (target <= 2)": rates_["native, pure C master"] / e,
-                         "native master / pythonfmu": rates_["native, Python master"] / py},
+                         "native master / pythonfmu": rates_["native, Python master"] / py,
+                         "fmpy container / pythonfmu": rates_["native, fmpy container"] / py},
               "rss_mb": rss, "objectives_basic_law": f}
     if args.json:
         print(json.dumps(report, indent=1))

@@ -174,7 +174,7 @@ def test_synthesis_needs_no_shared_folder(cluster, client_fmus_native, fmu_dir, 
     summary = json.loads(stdout)
     assert summary["failures"] == 0 and summary["generations"] == 6
     native = _native(fmu_dir)
-    assert summary["flight_path"] == ("native-container" if native else "master")
+    assert summary["flight_path"] == ("native-c" if native else "master")
     local = _cli("synthesize", "--problem", PROBLEM_FILE, *SMALL, "--workers", "1",
                  "--fmus", str(fmu_dir),
                  "--out", str(tmp_path / "local_run"))
@@ -229,15 +229,15 @@ def test_workers_fly_the_native_twins(cluster, client_fmus_native, fmu_dir):
     laws = [c.law for c in make_method("network-operator",
                                        REENTRY.tuned(population=32, seed=6)).ask()]
     with Evaluator(REENTRY, fmu_dir) as local:
-        assert local.path == "native-container"
+        assert local.path == "native-c"
         F_ref = local.evaluate(laws).F
     with Evaluator(REENTRY, client_fmus_native, scheduler=cluster.address) as ev:
         client_fmus_native.rename(client_fmus_native.with_name("gone"))
-        assert ev.path == "native-container"
+        assert ev.path == "native-c"
         F = ev.evaluate(laws).F
         # (a worker given no task has loaded nothing)
         assert set(tuple(v) for v in _worker_paths(ev.client).values() if v) \
-            == {("native-container",)}
+            == {("native-c",)}
     np.testing.assert_array_equal(F, F_ref)
 
 

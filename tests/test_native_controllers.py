@@ -349,7 +349,7 @@ def test_runner_chooses_the_native_path_when_the_twins_exist(twin_dir, fmu_dir, 
     from descent_fmus.synthesis.problems.runner import Runner
     from descent_fmus.synthesis.systems.reentry.wiring import WIRING
     fmus = (twin_dir / "Reentry.fmu", twin_dir / "NetworkOperatorController.fmu")
-    assert Runner().choose(WIRING, *fmus)[0] == "native-container"
+    assert Runner().choose(WIRING, *fmus)[0] == "native-c"
     assert Runner().choose(WIRING, *fmus, record=("h",))[0] == "native-master"
     assert Runner(native=False).choose(WIRING, *fmus)[0] == "master"
     assert Runner(native=False, container=True).choose(WIRING, *fmus)[0] == "container"
@@ -360,7 +360,7 @@ def test_runner_chooses_the_native_path_when_the_twins_exist(twin_dir, fmu_dir, 
         Runner(native=True).choose(WIRING, *none)
     loop = Runner().load(WIRING, *fmus)
     try:
-        assert loop.path == "native-container"
+        assert loop.path == "native-c"
     finally:
         loop.close()
 
@@ -399,7 +399,7 @@ def test_evaluator_native_path_gives_the_pythonfmu_objectives(twin_dir, fmu_dir)
     for native_path in (True, False):
         p = replace(problem, runner=replace(problem.runner, native=native_path))
         with Evaluator(p, twin_dir) as ev:
-            assert ev.backend.flyer.loop.path == ("native-container" if native_path
+            assert ev.backend.flyer.loop.path == ("native-c" if native_path
                                                   else "master")
             e = ev.evaluate(laws)
             res[native_path] = (e.F.tolist(), list(e.cv))

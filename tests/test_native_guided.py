@@ -226,5 +226,5 @@ def test_the_re_planner_flies_the_pythonfmu_controller(fmu_dir, problem):
         pytest.skip("no native twins in the FMU folder")
     assert Runner().choose(problem.wiring, *fmus, controller_values={"replan": 1})[0] == "master"
     assert Runner().choose(problem.wiring, *fmus,
-                           controller_values={"replan": 0})[0] == "native-container"
-    assert Runner().choose(problem.wiring, *fmus)[0] == "native-container"
+                           controller_values={"replan": 0})[0] == "native-c"
+    assert Runner().choose(problem.wiring, *fmus)[0] == "native-c"

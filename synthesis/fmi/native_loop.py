@@ -27,7 +27,7 @@ import numpy as np
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
 from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
 
-__all__ = ["NativeContainerLoop", "native_fmus", "NATIVE_DIR"]
+__all__ = ["NativeContainerLoop", "Layouts", "native_fmus", "NATIVE_DIR"]
 
 #: The folder of the native FMUs inside the FMU folder.
 NATIVE_DIR = "native"
@@ -64,23 +64,22 @@ def native_fmus(wiring: Wiring, plant_fmu, controller_fmu,
 
 
 class _Layout:
-    """How the start values of one component reach the container: for a fixed sequence of
-    names, the value references, types and declared start values as arrays, and the buffers
-    the FMI calls read (made once)."""
+    """How the start values of one component reach an FMU: for a fixed sequence of names, the
+    value references, types and declared start values as arrays, and the buffers the FMI calls
+    read (made once).  ``lookup(name)`` gives ``(model variable or None, declared start or
+    None)``; ``where`` names the FMU in errors."""
 
-    def __init__(self, loop: "NativeContainerLoop", role: str, names: tuple):
+    def __init__(self, names: tuple, lookup, where: str):
         self.names = names
         kinds, vrs, starts = [], [], []
         for name in names:
-            cname = loop._names.get((role, name), name)
-            v = loop._vars.get(cname)
+            v, start = lookup(name)
             if v is None:
-                raise KeyError(f"{loop.wiring.name} has no parameter {cname!r}")
+                raise KeyError(f"{where} has no parameter {name!r}")
             if v.type not in ("Real", "Integer", "Enumeration"):
-                raise TypeError(f"cannot set {v.type} variable {cname}")
+                raise TypeError(f"cannot set {v.type} variable {name}")
             kinds.append(v.type == "Real")
             vrs.append(v.valueReference)
-            start = loop._starts.get(cname)
             starts.append(math.nan if start is None else float(start))
         n = len(names)
         self.is_real, self.vr = np.array(kinds, dtype=bool), np.array(vrs, dtype=np.uint32)
@@ -90,14 +89,13 @@ class _Layout:
         self.views = tuple(np.frombuffer(b, dtype=t) for b, t in zip(
             self.bufs, (np.uint32, np.float64, np.uint32, np.int32)))
 
-    def set(self, loop: "NativeContainerLoop", v: np.ndarray) -> int:
-        """Set the values ``v`` (in the order of the names) that differ from the declared start
-        values (a NaN start: always set): one fmi2SetReal, one fmi2SetInteger."""
+    def fill(self, v: np.ndarray) -> tuple:
+        """Put the values ``v`` (in the order of the names) that differ from the declared start
+        values (a NaN start: always) into the buffers: ``(number of Reals, of Integers)``."""
         d = np.flatnonzero(v != self.start)
         real = self.is_real[d]
         rd, idd = d[real], d[~real]
-        (rvr, rval, ivr, ival), (rvr_v, rval_v, ivr_v, ival_v) = self.bufs, self.views
-        status = 0
+        rvr_v, rval_v, ivr_v, ival_v = self.views
         if len(rd):
             values = v[rd]
             if not np.isfinite(values).all():
@@ -105,12 +103,35 @@ class _Layout:
                 raise ValueError(f"value of {self.names[k]} must be finite, got {v[k]!r}")
             rvr_v[:len(rd)] = self.vr[rd]
             rval_v[:len(rd)] = values
-            status |= loop._set_real(loop._c, rvr, len(rd), rval)
         if len(idd):
             ivr_v[:len(idd)] = self.vr[idd]
             ival_v[:len(idd)] = v[idd]
-            status |= loop._set_int(loop._c, ivr, len(idd), ival)
-        return status
+        return len(rd), len(idd)
+
+
+class Layouts:
+    """The :class:`_Layout` of each ``(role, names)`` met so far (a law's names: the same tuple
+    every time, found at once); ``lookup(role)`` gives a role's name lookup."""
+
+    def __init__(self, lookup, where: str):
+        self._lookup, self._where, self._known = lookup, where, {}
+
+    def get(self, role: str, values):
+        """``(layout, value array)`` of a component's start values: a dict, or ``(names, float
+        array)`` (the law's :meth:`start_array`); None for no values."""
+        if not len(values):
+            return None
+        if isinstance(values, tuple):
+            names, v = values
+        else:
+            names, v = tuple(values), np.fromiter(values.values(), float, len(values))
+        key = (role, names)
+        lay = self._known.get(key)
+        if lay is None:
+            if len(self._known) > 64:            # names of ad-hoc calls: keep a few only
+                self._known.clear()
+            lay = self._known[key] = _Layout(names, self._lookup(role), self._where)
+        return lay, v
 
 
 def _as_dict(values) -> dict:
@@ -138,7 +159,7 @@ class NativeContainerLoop(ContainerLoop):
             "fmi2GetBoolean")}
         self._set_real = _SET_REAL(("fmi2SetReal", dll))
         self._set_int = _SET_INT(("fmi2SetInteger", dll))
-        self._layouts: dict = {}
+        self._layouts = Layouts(self._lookup, wiring.name)
         self._out = {}
         for kind, ctype in (("Real", ctypes.c_double), ("Integer", ctypes.c_int),
                             ("Boolean", ctypes.c_int)):
@@ -146,26 +167,26 @@ class NativeContainerLoop(ContainerLoop):
             self._out[kind] = ((ctypes.c_uint * len(vrs))(*vrs), len(vrs),
                                (ctype * len(vrs))(), self._out_names[kind])
 
-    def _layout(self, role: str, names: tuple) -> _Layout:
-        key = (role, names)          # a law's names: the same tuple every time, found at once
-        lay = self._layouts.get(key)
-        if lay is None:
-            if len(self._layouts) > 64:          # names of ad-hoc calls: keep a few only
-                self._layouts.clear()
-            lay = self._layouts[key] = _Layout(self, role, names)
-        return lay
+    def _lookup(self, role: str):
+        """A role's name -> (container variable, declared start) lookup."""
+        def lookup(name):
+            cname = self._names.get((role, name), name)
+            return self._vars.get(cname), self._starts.get(cname)
+        return lookup
 
     def _set_values(self, role: str, values) -> int:
         """Set a component's start values: a dict, or ``(names, float array)`` (the law's
-        :meth:`start_array`)."""
-        status = 0
-        if not len(values):
-            return status
-        if isinstance(values, tuple):
-            names, v = values
-        else:
-            names, v = tuple(values), np.fromiter(values.values(), float, len(values))
-        return self._layout(role, names).set(self, v)
+        :meth:`start_array`): one fmi2SetReal, one fmi2SetInteger."""
+        got = self._layouts.get(role, values)
+        if got is None:
+            return 0
+        lay, v = got
+        nr, ni = lay.fill(v)
+        rvr, rval, ivr, ival = lay.bufs
+        status = self._set_real(self._c, rvr, nr, rval) if nr else 0
+        if ni:
+            status |= self._set_int(self._c, ivr, ni, ival)
+        return status
 
     def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
             stop_time: float | None = None, record: bool = False, **_) -> ClosedLoopResult:

@@ -5,11 +5,13 @@ By default every law flies from every initial state of its problem through
 :class:`Runner` chooses instead
 
 * the **native path**, whenever the native (C) twins of the wiring's plant and controller are
-  built (``<fmu dir>/native/<identifier>.fmu``, ``build_fmus.py``): both inside fmpy's container
-  FMU, one call per flight, no Python in the flight
-  (:class:`synthesis.fmi.native_loop.NativeContainerLoop`); the same numbers as the pythonfmu
-  path.  ``native=False`` never takes it, ``native=True`` requires it (an error if the twins
-  are missing; with a recording, the Python master on the twins);
+  built (``<fmu dir>/native/<identifier>.fmu``, ``build_fmus.py``): both stepped by the C
+  master, one call per flight, no Python in the flight
+  (:class:`synthesis.fmi.c_master_loop.CMasterLoop`; where the master cannot be compiled, both
+  inside fmpy's container FMU, :class:`synthesis.fmi.native_loop.NativeContainerLoop`); the
+  same numbers as the pythonfmu path.  ``native=False`` never takes it, ``native=True``
+  requires it (an error if the twins are missing; with a recording, the Python master on the
+  twins);
 * the **container path** (``container=True``): the closed loop as one fmpy container FMU,
   loaded once per process, reset per flight, one ``doStep`` over the whole horizon
   (:class:`synthesis.fmi.container_loop.ContainerLoop`);
@@ -18,13 +20,15 @@ By default every law flies from every initial state of its problem through
   first flights (e.g. the nominal one) does not fly the whole set; the problem's objective
   function receives the shorter list and must rank such a law behind every fully flown one.
 
-The loaded loop says which path it is in one word, its ``path``: ``"native-container"``,
-``"container"``, ``"master"`` (``"native-master"``: the master on the twins).
+The loaded loop says which path it is in one word, its ``path``: ``"native-c"``,
+``"native-container"``, ``"container"``, ``"master"`` (``"native-master"``: the Python master
+on the twins).
 
 Everything here pickles (worker processes, Dask): module-level callables only.
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Callable
 
@@ -33,6 +37,24 @@ from descent_fmus.synthesis.fmi.native_loop import native_fmus
 from descent_fmus.synthesis.paths import FMUNotFoundError
 
 __all__ = ["Runner", "Race"]
+
+
+def _native_loop() -> str:
+    """``"native-c"`` where the C master is built (or can be, once), else
+    ``"native-container"`` (and a warning saying why, once per process)."""
+    from descent_fmus.synthesis.fmi.c_master_loop import MasterUnavailable, master_library
+    try:
+        master_library()
+        return "native-c"
+    except MasterUnavailable as exc:
+        if not _WARNED:
+            _WARNED.append(1)
+            warnings.warn(f"{exc}; the native flights run in fmpy's container FMU instead",
+                          RuntimeWarning, stacklevel=3)
+        return "native-container"
+
+
+_WARNED: list = []
 
 
 @dataclass(frozen=True)
@@ -72,7 +94,7 @@ class Runner:
                 f"{wiring.controller}.fmu in the folder native/ beside {plant_fmu} (python "
                 f"build_fmus.py builds them where a C compiler exists)")
         if twins is not None:
-            return ("native-master" if record else "native-container"), twins
+            return ("native-master" if record else _native_loop()), twins
         return ("container" if self.container and not record else "master"), \
             (plant_fmu, controller_fmu)
 
@@ -82,6 +104,9 @@ class Runner:
         ``path`` names it.  ``controller_values``: start values every flight sets (see
         :meth:`choose`)."""
         path, fmus = self.choose(wiring, plant_fmu, controller_fmu, record, controller_values)
+        if path == "native-c":
+            from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop
+            return CMasterLoop(wiring, *fmus)
         if path == "native-container":
             from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
             return NativeContainerLoop(wiring, *fmus)

@@ -308,7 +308,7 @@ class DaskCluster(Backend):
 
 def flight_path(problem, fmus) -> str:
     """The closed-loop path the problem's runner takes with these FMUs, in one word
-    (``native-container``, ``native-master``, ``container``, ``master``)."""
+    (``native-c``, ``native-container``, ``native-master``, ``container``, ``master``)."""
     return problem.runner.choose(problem.wiring, *fmus, record=problem.record)[0]
 
 

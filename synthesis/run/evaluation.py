@@ -139,8 +139,8 @@ class Evaluator:
         self.fmus = tuple(str(require_fmu(f).resolve()) for f in problem.fmu_paths(fmu_dir))
         self.backend = backend or make_backend(problem, self.fmus, workers, scheduler,
                                                connect_timeout)
-        #: the closed-loop path the flights take, in one word (``native-container``: the
-        #: native twins of the FMUs in fmpy's container FMU, one call per flight)
+        #: the closed-loop path the flights take, in one word (``native-c``: the native twins
+        #: of the FMUs under the C master, one call per flight)
         self.path = flight_path(problem, self.fmus)
         self.cache: OrderedDict = OrderedDict()     # fingerprint -> Outcome, recent last
         self.behaviour: OrderedDict = OrderedDict()  # behaviour key -> Outcome of its first flight

@@ -1,0 +1,292 @@
+"""The closed loop of two native FMUs stepped by a small C master: one call per flight.
+
+The master (``synthesis/fmi/native/c/master.c``) is the Python master's algorithm
+(:class:`synthesis.fmi.closed_loop.ClosedLoop`) written in C, call for call: reset, start values,
+initialisation, then the Gauss-Seidel exchange and the two ``doStep`` calls on the grid
+``t_k = k h``, ending at the wiring's stop condition.  The same FMUs give the same numbers bit for
+bit as the Python master and as fmpy's container FMU (whose frozen plant ends where the stop
+condition held), at the cost of the FMUs' own work: no Python and no container between two
+steps.
+
+The master is a shared library compiled here once per machine (:func:`master_library`: kept
+in :func:`synthesis.paths.cache_dir`, keyed by the compiler and the source), loaded once per
+process.  :class:`CMasterLoop` extracts the two FMUs, loads their binaries through it and flies
+with one ``dm_fly`` call: a flight sets only the start values that differ from the FMUs'
+declared ones (a law's start values come as ``(names, array)``).
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import math
+import os
+import shutil
+import tempfile
+import threading
+from pathlib import Path
+
+import numpy as np
+
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
+from descent_fmus.synthesis.fmi.native_loop import Layouts, _as_dict
+
+__all__ = ["CMasterLoop", "master_library", "MasterUnavailable"]
+
+_SOURCES = ("master.c", "master.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+_STOP_TYPES = {"Real": 1, "Integer": 2, "Boolean": 3}
+_STOP_OPS = {"!=": 0, "<=": 1, ">=": 2}
+_LOCK = threading.Lock()
+_LOADED: dict = {}
+
+
+class MasterUnavailable(RuntimeError):
+    """The C master cannot be built here (no compiler, or the build failed)."""
+
+
+class _Values(ctypes.Structure):
+    _fields_ = [("nr", ctypes.c_size_t), ("rvr", ctypes.c_void_p), ("rval", ctypes.c_void_p),
+                ("ni", ctypes.c_size_t), ("ivr", ctypes.c_void_p), ("ival", ctypes.c_void_p)]
+
+
+class _Outputs(ctypes.Structure):
+    _fields_ = [("nr", ctypes.c_size_t), ("ni", ctypes.c_size_t), ("nb", ctypes.c_size_t),
+                ("rvr", ctypes.c_void_p), ("ivr", ctypes.c_void_p), ("bvr", ctypes.c_void_p),
+                ("rval", ctypes.c_void_p), ("ival", ctypes.c_void_p), ("bval", ctypes.c_void_p)]
+
+
+def master_library(compiler: str | None = None) -> Path:
+    """The compiled C master (built on first use, then found in the cache).
+
+    Raises
+    ------
+    MasterUnavailable
+        No C compiler, or it failed on the master's source (the message says which).
+    """
+    from descent_fmus.synthesis.fmi.native.build import (C_DIR, COMPILE_FLAGS,
+                                                         CompilerNotFoundError,
+                                                         NativeBuildError, compile_sources,
+                                                         find_compiler, platform_folder)
+    from descent_fmus.synthesis.paths import cache_dir
+    cc = compiler or find_compiler()
+    if cc is None:
+        raise MasterUnavailable("no C compiler found to build the C master (install gcc, or "
+                                "set CC)")
+    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, [(n, (C_DIR / n).read_bytes())
+                                                   for n in _SOURCES])).encode()).hexdigest()
+    lib = cache_dir() / "master" / f"master-{key[:16]}{platform_folder()[1]}"
+    if lib.is_file():
+        return lib
+    with _LOCK:
+        if lib.is_file():
+            return lib
+        lib.parent.mkdir(parents=True, exist_ok=True)
+        tmp = lib.with_name(f".{lib.name}.{os.getpid()}.{threading.get_ident()}")
+        try:               # another process may build it too: each writes its own file
+            compile_sources(C_DIR, ["master.c"], tmp, cc, libraries=("m", "dl"))
+            os.replace(tmp, lib)
+        except (CompilerNotFoundError, NativeBuildError) as exc:
+            raise MasterUnavailable(f"cannot build the C master: {exc}") from None
+        finally:
+            tmp.unlink(missing_ok=True)
+    return lib
+
+
+def _dll(path: Path):
+    """The master library, loaded once per process, with its functions' signatures."""
+    with _LOCK:
+        dll = _LOADED.get(path)
+        if dll is None:
+            dll = ctypes.CDLL(str(path))
+            p, s, d, i, u, l_ = (ctypes.c_void_p, ctypes.c_char_p, ctypes.c_double,
+                                 ctypes.c_int, ctypes.c_uint, ctypes.c_long)
+            dll.dm_open.restype, dll.dm_open.argtypes = p, [s] * 6
+            dll.dm_message.restype, dll.dm_message.argtypes = s, [p]
+            dll.dm_close.restype, dll.dm_close.argtypes = None, [p]
+            dll.dm_wire.restype = i
+            dll.dm_wire.argtypes = [p, ctypes.c_size_t, p, p, ctypes.c_size_t, p, p, d, i, u, i,
+                                    d, l_]
+            dll.dm_fly.restype = i
+            dll.dm_fly.argtypes = [p, d, p, p, p, ctypes.POINTER(l_), ctypes.POINTER(i)]
+            _LOADED[path] = dll
+        return dll
+
+
+def _uint_array(values):
+    return (ctypes.c_uint * max(len(values), 1))(*values)
+
+
+class _Fmu:
+    """One extracted FMU: its model description, variables, declared starts and binary."""
+
+    def __init__(self, path, role: str, tmp: str):
+        from fmpy import extract, read_model_description
+
+        from descent_fmus.synthesis.fmi.native.build import platform_folder
+        self.md = read_model_description(str(path))
+        if self.md.coSimulation is None:
+            raise FMUError(f"{path}: not a co-simulation FMU")
+        self.dir = extract(str(path), unzipdir=os.path.join(tmp, role))
+        folder, suffix = platform_folder()
+        self.binary = Path(self.dir, "binaries", folder,
+                           self.md.coSimulation.modelIdentifier + suffix)
+        if not self.binary.is_file():
+            raise FMUError(f"{path}: no binary for {folder} ({self.binary.name})")
+        self.resources = Path(self.dir, "resources").as_uri()
+        self.vars = {v.name: v for v in self.md.modelVariables}
+        self.starts = {}
+        for v in self.md.modelVariables:
+            if v.start is not None and v.causality in ("parameter", "input"):
+                try:
+                    self.starts[v.name] = int(v.start) if v.type == "Integer" else float(v.start)
+                except (TypeError, ValueError):
+                    pass
+
+    def var(self, name: str):
+        try:
+            return self.vars[name]
+        except KeyError:
+            raise KeyError(f"{self.md.modelName} has no variable {name!r}") from None
+
+
+class CMasterLoop:
+    """A plant and a controller FMU (native, FMI 2.0 co-simulation) in closed loop under the C
+    master; same ``run`` as :class:`~synthesis.fmi.closed_loop.ClosedLoop` for final outputs
+    (no recording, the wiring's step, Gauss-Seidel).
+
+    Raises
+    ------
+    MasterUnavailable
+        No C master on this machine (the runner then takes fmpy's container).
+    FMUError
+        An FMU that cannot be extracted, loaded or instantiated.
+    """
+
+    #: The closed-loop path, in one word (what a run reports).
+    path = "native-c"
+    #: ``run`` takes a controller's start values as ``(names, values)`` too
+    takes_arrays = True
+
+    def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
+        self._dll = _dll(master_library())
+        self.wiring, self._m = wiring, None
+        self._tmp = tempfile.mkdtemp(prefix="descent_c_master_")
+        try:
+            self._open(wiring, plant_fmu, controller_fmu)
+        except BaseException:
+            self.close()
+            raise
+
+    def _open(self, wiring: Wiring, plant_fmu, controller_fmu) -> None:
+        p, c = _Fmu(plant_fmu, "plant", self._tmp), _Fmu(controller_fmu, "controller", self._tmp)
+        self._fmus = {"plant": p, "controller": c}
+        self._m = self._dll.dm_open(str(p.binary).encode(), p.md.guid.encode(),
+                                    p.resources.encode(), str(c.binary).encode(),
+                                    c.md.guid.encode(), c.resources.encode())
+        if not self._m:
+            raise MemoryError("the C master could not allocate its state")
+        self._check(f"{wiring.name} (native-c): loading the FMUs")
+        self._wire(wiring, p, c)
+        self._layouts = Layouts(self._lookup, wiring.name)
+        self._structs = {}
+        self._none = _Values()
+        outs = {t: [v for v in p.md.modelVariables if v.causality == "output" and v.type == t]
+                for t in ("Real", "Integer", "Boolean")}
+        self._out_names = {t: [v.name for v in vs] for t, vs in outs.items()}
+        vr = {t: _uint_array([v.valueReference for v in vs]) for t, vs in outs.items()}
+        self._out_buf = {"Real": (ctypes.c_double * max(len(outs["Real"]), 1))(),
+                         "Integer": (ctypes.c_int * max(len(outs["Integer"]), 1))(),
+                         "Boolean": (ctypes.c_int * max(len(outs["Boolean"]), 1))()}
+        a = ctypes.addressof
+        self._keep = vr
+        self._outputs = _Outputs(len(outs["Real"]), len(outs["Integer"]), len(outs["Boolean"]),
+                                 a(vr["Real"]), a(vr["Integer"]), a(vr["Boolean"]),
+                                 a(self._out_buf["Real"]), a(self._out_buf["Integer"]),
+                                 a(self._out_buf["Boolean"]))
+        self._steps, self._stopped = ctypes.c_long(), ctypes.c_int()
+
+    def _wire(self, w: Wiring, p: _Fmu, c: _Fmu) -> None:
+        y = _uint_array([p.var(a).valueReference for a, _ in w.to_controller])
+        x = _uint_array([c.var(b).valueReference for _, b in w.to_controller])
+        u = _uint_array([c.var(a).valueReference for a, _ in w.to_plant])
+        pu = _uint_array([p.var(b).valueReference for _, b in w.to_plant])
+        stop_type, stop_vr, stop_op, stop_value, check = 0, 0, 0, 0.0, 1
+        if w.stop is not None:
+            sv = p.var(w.stop.output)
+            if sv.causality != "output":
+                raise KeyError(f"{p.md.modelName}: stop condition variable {w.stop.output!r} "
+                               f"is not an output")
+            stop_type, stop_vr = _STOP_TYPES.get(sv.type, 1), sv.valueReference
+            stop_op, stop_value, check = _STOP_OPS[w.stop.op], w.stop.value, w.stop.check_every
+        if self._dll.dm_wire(self._m, len(w.to_controller), y, x, len(w.to_plant), u, pu,
+                             w.step, stop_type, stop_vr, stop_op, stop_value, check):
+            self._check(f"{w.name} (native-c): wiring")
+
+    def _lookup(self, role: str):
+        fmu = self._fmus[role]
+        return lambda name: (fmu.vars.get(name), fmu.starts.get(name))
+
+    def _check(self, what: str) -> None:
+        said = (self._dll.dm_message(self._m) or b"").decode(errors="replace")
+        if said:
+            raise FMUError(f"{what} failed: {said}")
+
+    def _values(self, role: str, values):
+        """The ``_Values`` of a component's start values for this flight."""
+        got = self._layouts.get(role, values or ())
+        if got is None:
+            return self._none
+        lay, v = got
+        st = self._structs.get(id(lay))
+        if st is None or st[0] is not lay:
+            a = ctypes.addressof
+            rvr, rval, ivr, ival = lay.bufs
+            st = self._structs[id(lay)] = (lay, _Values(0, a(rvr), a(rval), 0, a(ivr), a(ival)))
+        st[1].nr, st[1].ni = lay.fill(v)
+        return st[1]
+
+    def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
+            stop_time: float | None = None, step: float | None = None, record: bool = False,
+            scheme: str = "gauss-seidel") -> ClosedLoopResult:
+        """One flight from t = 0; the final plant outputs.  The start values: dicts, or
+        ``(names, float array)`` pairs."""
+        w = self.wiring
+        if record:
+            raise ValueError("the C master records no trajectory; use ClosedLoop")
+        if scheme != "gauss-seidel" or (step is not None and float(step) != w.step):
+            raise ValueError("the C master steps on the wiring's grid, Gauss-Seidel only; use "
+                             "ClosedLoop for another step or scheme")
+        t_end = w.stop_time if stop_time is None else float(stop_time)
+        if not (t_end > 0 and math.isfinite(t_end)):
+            raise ValueError(f"need a finite stop time > 0, got {t_end}")
+        if self._m is None:
+            raise FMUError(f"{w.name} (native-c): the loop is closed")
+        pv = self._values("plant", plant_values)
+        cv = self._values("controller", controller_values)
+        if self._dll.dm_fly(self._m, t_end, ctypes.byref(pv), ctypes.byref(cv),
+                            ctypes.byref(self._outputs), ctypes.byref(self._steps),
+                            ctypes.byref(self._stopped)):
+            self._check(f"{w.name} (native-c): the flight")
+            raise FMUError(f"{w.name} (native-c): the flight failed")
+        final = dict(zip(self._out_names["Real"], self._out_buf["Real"]))
+        for kind in ("Integer", "Boolean"):
+            final.update(zip(self._out_names[kind], map(int, self._out_buf[kind])))
+        k = self._steps.value
+        return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
+                                stopped=bool(self._stopped.value), steps=k,
+                                t_final=min(k * w.step, t_end), start=_as_dict(plant_values))
+
+    def close(self) -> None:
+        m, self._m = self._m, None
+        if m:
+            self._dll.dm_close(m)
+        self.remove_files()
+
+    def remove_files(self) -> None:
+        """Delete the extracted FMUs (files only: no FMU call)."""
+        shutil.rmtree(self._tmp, ignore_errors=True)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

@@ -1,0 +1,137 @@
+"""The C master (synthesis/fmi/native/c/master.c): the evaluator's native path.
+
+Oracle: the Python master (``ClosedLoop``) on the same native FMUs -- the master algorithm's
+definition -- and fmpy's container FMU: the same FMI calls in the same order, so every final plant
+output, the steps taken and the stop flag must agree bit for bit (tolerance 0).
+"""
+from __future__ import annotations
+
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop, MasterUnavailable, master_library
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
+from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop, native_fmus
+
+pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
+                                reason="needs a C compiler")
+
+
+def _twins_or_skip(problem, fmu_dir):
+    twins = native_fmus(problem.wiring, *problem.fmu_paths(fmu_dir))
+    if twins is None:
+        pytest.skip(f"native twins of {problem.wiring.name} not built")
+    return twins
+
+
+def _same(a, b):
+    # bitwise: NaN only equal to NaN, -0.0 distinct from 0.0
+    assert a.keys() == b.keys()
+    for k in a:
+        x, y = a[k], b[k]
+        assert np.float64(x).tobytes() == np.float64(y).tobytes(), (k, x, y)
+
+
+@pytest.mark.parametrize("name", ["reentry", "reentry-robust", "reentry-sensed",
+                                  "reentry-guided", "lunar-descent"])
+def test_c_master_equals_the_python_master_and_the_container(name, fmu_dir):
+    # every registered problem with native twins: its basic law from its first three initial
+    # states, and a second round on the same loop (after the resets)
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem(name)
+    twins = _twins_or_skip(problem, fmu_dir)
+    law = problem.basic()
+    states = problem.initial_states[:3]
+    with ClosedLoop(problem.wiring, *twins) as py:
+        want = [py.run(s, law.start_values()) for s in states]
+    with NativeContainerLoop(problem.wiring, *twins) as box:
+        boxed = [box.run(s, law.start_array()).final for s in states]
+    with CMasterLoop(problem.wiring, *twins) as cm:
+        for _ in range(2):
+            for s, w, b in zip(states, want, boxed):
+                got = cm.run(s, law.start_array())
+                _same(got.final, w.final)
+                _same(got.final, b)
+                assert (got.steps, got.stopped, got.t_final) == (w.steps, w.stopped, w.t_final)
+            # the law's start values as a dict give the same flight
+            _same(cm.run(states[0], law.start_values()).final, want[0].final)
+
+
+def test_c_master_runs_every_native_closed_loop(fmu_dir):
+    # the registered closed loops whose components are native (telescopes, S5, S1 ...), each
+    # with its own controller defaults, at their default start values
+    from descent_fmus.synthesis.registry import closed_loop_specs
+    flown = 0
+    for spec in closed_loop_specs():
+        w, d = spec.wiring, fmu_dir / "native"
+        ctrl = d / (f"{w.name}Controller.fmu" if spec.controller_defaults is not None
+                    else f"{w.controller}.fmu")
+        plant = d / f"{w.plant}.fmu"
+        if not (plant.is_file() and ctrl.is_file()):
+            continue
+        with ClosedLoop(w, plant, ctrl) as py, CMasterLoop(w, plant, ctrl) as cm:
+            want, got = py.run(), cm.run()
+        _same(got.final, want.final)
+        assert (got.steps, got.stopped) == (want.steps, want.stopped), w.name
+        flown += 1
+    assert flown >= 5
+
+
+def test_no_compiler_falls_back_to_the_container(fmu_dir, monkeypatch, tmp_path):
+    # no master built and no compiler: the runner says so once and takes fmpy's container
+    from descent_fmus.synthesis.problems import runner as runner_mod
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem("reentry")
+    fmus = problem.fmu_paths(fmu_dir)
+    _twins_or_skip(problem, fmu_dir)
+    monkeypatch.setenv("DESCENT_FMUS_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv("CC", "no-such-compiler-here")
+    monkeypatch.setattr(runner_mod, "_WARNED", [])
+    with pytest.raises(MasterUnavailable, match="no C compiler"):
+        master_library()
+    with pytest.warns(RuntimeWarning, match="container"):
+        assert runner_mod.Runner().choose(problem.wiring, *fmus)[0] == "native-container"
+    loop = runner_mod.Runner().load(problem.wiring, *fmus)
+    try:
+        assert loop.path == "native-container"
+    finally:
+        loop.close()
+
+
+def test_bad_input_and_failing_flights(fmu_dir, tmp_path):
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem("reentry-guided")
+    twins = _twins_or_skip(problem, fmu_dir)
+    law = problem.basic()
+    state = problem.initial_states[0]
+    with CMasterLoop(problem.wiring, *twins) as cm:
+        with pytest.raises(KeyError, match="no_such_parameter"):
+            cm.run(state, {"no_such_parameter": 1.0})
+        names, values = law.start_array()
+        bad = values.copy()
+        k = next(i for i, n in enumerate(names) if n.startswith("q["))
+        bad[k] = math.nan
+        with pytest.raises(ValueError, match="must be finite"):
+            cm.run(state, (names, bad))
+        with pytest.raises(ValueError, match="records no trajectory"):
+            cm.run(state, law.start_array(), record=True)
+        with pytest.raises(ValueError, match="Gauss-Seidel"):
+            cm.run(state, law.start_array(), scheme="jacobi")
+        # the twin refuses the re-planner at initialisation: the flight fails with its words,
+        # and the loop flies on afterwards
+        with pytest.raises(FMUError, match="(?i)replan"):
+            cm.run(state, {**law.start_values(), "replan": 1})
+        with ClosedLoop(problem.wiring, *twins) as py:
+            _same(cm.run(state, law.start_array()).final,
+                  py.run(state, law.start_values()).final)
+    with pytest.raises(FMUError, match="no binary"):
+        broken = tmp_path / "Empty.fmu"
+        import zipfile
+        with zipfile.ZipFile(twins[0]) as src, zipfile.ZipFile(broken, "w") as dst:
+            for item in src.infolist():
+                if not item.filename.startswith("binaries/"):
+                    dst.writestr(item, src.read(item.filename))
+        CMasterLoop(problem.wiring, broken, twins[1])
