@@ -211,9 +211,12 @@ static int start(DmMaster *m, DmFmu *f, const DmValues *v, double t_end)
         DM_CALL(f == &m->plant ? "setting the plant's Integers"
                                : "setting the controller's Integers",
                 f->set_int(f->c, v->ivr, v->ni, v->ival))
-    DM_CALL(f == &m->plant ? "plant initialisation" : "controller initialisation",
-            f->setup(f->c, fmi2False, 0.0, 0.0, fmi2True, t_end) | f->enter(f->c)
-                | f->exit_init(f->c))
+    DM_CALL(f == &m->plant ? "plant fmi2SetupExperiment" : "controller fmi2SetupExperiment",
+            f->setup(f->c, fmi2False, 0.0, 0.0, fmi2True, t_end))
+    DM_CALL(f == &m->plant ? "plant fmi2EnterInitializationMode"
+                           : "controller fmi2EnterInitializationMode", f->enter(f->c))
+    DM_CALL(f == &m->plant ? "plant fmi2ExitInitializationMode"
+                           : "controller fmi2ExitInitializationMode", f->exit_init(f->c))
     return 0;
 }
 
@@ -251,9 +254,12 @@ DM_EXPORT int dm_fly(DmMaster *m, double t_end, const DmValues *plant, const DmV
         return 1;
     for (k = 0; k <= n; k++) {
         const double t = k * h;
-        if ((p->get_real(p->c, m->y_vr, m->ny, m->y) | c->set_real(c->c, m->x_vr, m->ny, m->y)
-             | c->get_real(c->c, m->u_vr, m->nu, m->u)
-             | p->set_real(p->c, m->pu_vr, m->nu, m->u)) > fmi2Warning) {
+        /* one call after the other (the operands of | are not sequenced in C) */
+        int st = p->get_real(p->c, m->y_vr, m->ny, m->y);
+        st |= c->set_real(c->c, m->x_vr, m->ny, m->y);
+        st |= c->get_real(c->c, m->u_vr, m->nu, m->u);
+        st |= p->set_real(p->c, m->pu_vr, m->nu, m->u);
+        if (st > fmi2Warning) {
             say(m, "exchanging values at t = %.17g s failed", t);
             return 1;
         }
