@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
+from descent_fmus.synthesis.fmi.declared import declared_starts
 from descent_fmus.synthesis.fmi.native_loop import Layouts, _as_dict
 
 __all__ = ["CMasterLoop", "master_library", "MasterUnavailable"]
@@ -133,13 +134,7 @@ class _Fmu:
             raise FMUError(f"{path}: no binary for {folder} ({self.binary.name})")
         self.resources = Path(self.dir, "resources").as_uri()
         self.vars = {v.name: v for v in self.md.modelVariables}
-        self.starts = {}
-        for v in self.md.modelVariables:
-            if v.start is not None and v.causality in ("parameter", "input"):
-                try:
-                    self.starts[v.name] = int(v.start) if v.type == "Integer" else float(v.start)
-                except (TypeError, ValueError):
-                    pass
+        self.starts = declared_starts(self.md)
 
     def var(self, name: str):
         try:

@@ -26,6 +26,7 @@ from fmpy import calloc, extract, free, read_model_description
 from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
                        fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2True)
 
+from descent_fmus.synthesis.fmi.declared import declared_starts
 from descent_fmus.synthesis.paths import FMUNotFoundError, require_fmu
 
 __all__ = ["Wiring", "Stop", "STATUS_STOP", "ClosedLoop", "ClosedLoopResult",
@@ -232,13 +233,7 @@ class _Component:
         self.fmu = load_slave(path, role, self.log)
         self.md = self.fmu.model
         self.vars = {v.name: v for v in self.md.modelVariables}
-        self.starts = {}
-        for v in self.md.modelVariables:
-            if v.start is not None and v.causality in ("parameter", "input"):
-                try:
-                    self.starts[v.name] = int(v.start) if v.type == "Integer" else float(v.start)
-                except (TypeError, ValueError):
-                    pass
+        self.starts = declared_starts(self.md)
         self.role = role
 
     def var(self, name):
