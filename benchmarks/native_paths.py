@@ -33,7 +33,7 @@ from pathlib import Path
 
 from fmpy import extract, read_model_description
 
-from descent_fmus.synthesis.fmi.c_master_loop import _STOP_OPS, _STOP_TYPES
+from descent_fmus.synthesis.fmi.c_master_loop import STOP_OPS, STOP_TYPES
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.native.build import C_DIR, COMPILE_FLAGS, find_compiler
 from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
@@ -143,7 +143,7 @@ class CMaster:
         lines += [f"h {float.hex(w.step)}", f"t {float.hex(w.stop_time)}"]
         if w.stop is not None:
             sv = pv[w.stop.output]
-            lines.append(f"s {_STOP_TYPES[sv.type]} {sv.valueReference} {_STOP_OPS[w.stop.op]} "
+            lines.append(f"s {STOP_TYPES[sv.type]} {sv.valueReference} {STOP_OPS[w.stop.op]} "
                          f"{w.stop.value!r} {w.stop.check_every}")
         self.spec = work / "spec.txt"
         self.spec.write_text("\n".join(lines) + "\n")

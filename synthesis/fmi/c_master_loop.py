@@ -31,11 +31,14 @@ from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, W
 from descent_fmus.synthesis.fmi.declared import declared_starts
 from descent_fmus.synthesis.fmi.native_loop import Layouts, _as_dict
 
-__all__ = ["CMasterLoop", "master_library", "MasterUnavailable"]
+__all__ = ["CMasterLoop", "master_library", "MasterUnavailable",
+           "STOP_TYPES", "STOP_OPS"]
 
 _SOURCES = ("master.c", "master.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
-_STOP_TYPES = {"Real": 1, "Integer": 2, "Boolean": 3}
-_STOP_OPS = {"!=": 0, "<=": 1, ">=": 2}
+#: The stop condition as ``dm_wire`` takes it: the output's type and the operator, coded.
+#: The stop condition as dm_wire takes it: the output's type and the operator, coded.
+STOP_TYPES = {"Real": 1, "Integer": 2, "Boolean": 3}
+STOP_OPS = {"!=": 0, "<=": 1, ">=": 2}
 _LOCK = threading.Lock()
 _LOADED: dict = {}
 
@@ -182,7 +185,6 @@ class CMasterLoop:
         self._check(f"{wiring.name} (native-c): loading the FMUs")
         self._wire(wiring, p, c)
         self._layouts = Layouts(self._lookup, wiring.name)
-        self._structs = {}
         self._none = _Values()
         outs = {t: [v for v in p.md.modelVariables if v.causality == "output" and v.type == t]
                 for t in ("Real", "Integer", "Boolean")}
@@ -210,8 +212,8 @@ class CMasterLoop:
             if sv.causality != "output":
                 raise KeyError(f"{p.md.modelName}: stop condition variable {w.stop.output!r} "
                                f"is not an output")
-            stop_type, stop_vr = _STOP_TYPES.get(sv.type, 1), sv.valueReference
-            stop_op, stop_value, check = _STOP_OPS[w.stop.op], w.stop.value, w.stop.check_every
+            stop_type, stop_vr = STOP_TYPES.get(sv.type, 1), sv.valueReference
+            stop_op, stop_value, check = STOP_OPS[w.stop.op], w.stop.value, w.stop.check_every
         if self._dll.dm_wire(self._m, len(w.to_controller), y, x, len(w.to_plant), u, pu,
                              w.step, stop_type, stop_vr, stop_op, stop_value, check):
             self._check(f"{w.name} (native-c): wiring")
@@ -226,18 +228,18 @@ class CMasterLoop:
             raise FMUError(f"{what} failed: {said}")
 
     def _values(self, role: str, values):
-        """The ``_Values`` of a component's start values for this flight."""
+        """The ``_Values`` of a component's start values for this flight (kept on the layout,
+        which holds the buffers it points to)."""
         got = self._layouts.get(role, values or ())
         if got is None:
             return self._none
         lay, v = got
-        st = self._structs.get(id(lay))
-        if st is None or st[0] is not lay:
-            a = ctypes.addressof
-            rvr, rval, ivr, ival = lay.bufs
-            st = self._structs[id(lay)] = (lay, _Values(0, a(rvr), a(rval), 0, a(ivr), a(ival)))
-        st[1].nr, st[1].ni = lay.fill(v)
-        return st[1]
+        st = getattr(lay, "c_values", None)
+        if st is None:
+            rvr, rval, ivr, ival = (ctypes.addressof(b) for b in lay.bufs)
+            st = lay.c_values = _Values(0, rvr, rval, 0, ivr, ival)
+        st.nr, st.ni = lay.fill(v)
+        return st
 
     def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
             stop_time: float | None = None, step: float | None = None, record: bool = False,
