@@ -36,7 +36,6 @@ __all__ = ["CMasterLoop", "master_library", "MasterUnavailable",
 
 _SOURCES = ("master.c", "master.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
 #: The stop condition as ``dm_wire`` takes it: the output's type and the operator, coded.
-#: The stop condition as dm_wire takes it: the output's type and the operator, coded.
 STOP_TYPES = {"Real": 1, "Integer": 2, "Boolean": 3}
 STOP_OPS = {"!=": 0, "<=": 1, ">=": 2}
 _LOCK = threading.Lock()
