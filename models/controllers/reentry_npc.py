@@ -34,7 +34,7 @@ from descent_fmus.models.reentry import (T_PLUS, U_BOUNDS, ReentryParams, altitu
                                          downrange, loads, rhs)
 
 __all__ = ["NPCParams", "GuidedParams", "gate_weight", "predict_range", "predict_flight",
-           "predict_step", "predicted_inputs",
+           "predict_step", "predicted_inputs", "predicted_load",
            "solve_control",
            "ReentryNPC", "GuidedNetworkOperatorController"]
 
@@ -115,25 +115,32 @@ def predict_flight(x, control, kd: float, model: ReentryParams = ReentryParams()
     (models.reentry.loads) at both ends of every step under that step's control (both
     one-sided values of every control change, as the plant samples them) and at the landing
     (an empty list without ``record``)."""
-    gm, _, lam_m, rz = model.constants()
-    lam = lam_m if lam is None else lam
-    g0 = model.g0
+    lam = model.lam if lam is None else lam
+    rz = model.constants()[3]
     x, t, samples = tuple(x), 0.0, []
     while t < HORIZON - 1e-9:
-        args = (control(x), gm, kd, lam, rz)
+        u = control(x)
         if record:
-            samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
-        x, outcome = predict_step(x, args[0], kd, lam, model, dt)
+            samples.append(predicted_load(x, u, kd, lam, model))
+        x, outcome = predict_step(x, u, kd, lam, model, dt)
         if outcome == EVENT:
             if record:
-                samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
+                samples.append(predicted_load(x, u, kd, lam, model))
             return downrange(x, rz), samples
         if outcome != OK:
             break
         if record:       # the left-hand value at the step's end: the load jumps with u there
-            samples.append(loads(x, rhs(x, *args), kd, lam, rz, g0, args[0])[0])
+            samples.append(predicted_load(x, u, kd, lam, model))
         t += dt
     return NOT_REACHED, samples
+
+
+def predicted_load(x, u: float, kd: float, lam: float, model: ReentryParams) -> float:
+    """The paper's load (:func:`models.reentry.loads`) at the state ``x`` under the control
+    ``u`` with the drag factor ``kd`` [1/m] and the inverse scale height ``lam`` [1/m] of an
+    estimated profile (``model``'s other constants)."""
+    gm, _, _, rz = model.constants()
+    return loads(x, rhs(x, u, gm, kd, lam, rz), kd, lam, rz, model.g0, u)[0]
 
 
 def predicted_inputs(xp, line: ReentryParams, rz: float, log_factor: float, dlam: float,
@@ -442,9 +449,7 @@ class GuidedNetworkOperatorController(_GuidanceCycle, SensedNetworkOperatorContr
         x = self.nav_state()
         try:
             prof = self.estimator().profile(self.a_drag, x)
-            gm, _, _, rz = self._model.constants()
-            args = (u, gm, prof.kd, prof.lam, rz)
-            n = loads(x, rhs(x, *args), prof.kd, prof.lam, rz, self._model.g0, u)[0]
+            n = predicted_load(x, u, prof.kd, prof.lam, self._model)
         except (ArithmeticError, ValueError):
             return
         if n > self._peak:

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PLAN_KNOTS", "plan_weights", "plan_value", "replan", "lp_step"]
+__all__ = ["PLAN_KNOTS", "plan_weights", "plan_value", "replan", "lp_step", "lp_problems"]
 
 #: Altitudes [m] of the hat functions' peaks [choice]: above the first knot the first weight
 #: acts alone, below the last the last; between them the two neighbours interpolate.  The
@@ -87,14 +87,17 @@ def _columns(evaluate, c, c_max):
     return m0, l0a, np.asarray(dm), G
 
 
-def lp_step(m0, l0, dm, G, c, c_max, trust, effort, floor):
-    """The linearised minimax step Delta of the weights (see the module docstring)."""
-    from scipy.optimize import linprog
+def lp_problems(m0, l0, dm, G, c, c_max, trust, effort, floor) -> tuple:
+    """The two linear programmes of :func:`lp_step` as :func:`scipy.optimize.linprog`'s
+    keyword arguments: the minimax step (variables Delta_1..k, s, t_1..k: minimise
+    s + effort sum t subject to G Delta - s <= -l0, s >= floor, t_j >= |c_j + Delta_j|, the
+    linearised miss dm Delta + m0 = 0, the trust region and |c + Delta| <= c_max), and the
+    least |miss| within the same box (variables Delta, e)."""
     k, n = len(c), len(l0)
     c = np.asarray(c, float)
+    dm = np.asarray(dm, float)
     lo = np.maximum(-trust, -c_max - c)
     hi = np.minimum(trust, c_max - c)
-    # variables (Delta_1..k, s, t_1..k): min s + effort sum t, t_j >= |c_j + Delta_j|
     cost = np.concatenate([np.zeros(k), [1.0], np.full(k, effort)])
     a_ub = np.zeros((n + 1 + 2 * k, 2 * k + 1))
     a_ub[:n, :k], a_ub[:n, k] = G, -1.0
@@ -102,19 +105,30 @@ def lp_step(m0, l0, dm, G, c, c_max, trust, effort, floor):
     eye = np.eye(k)
     a_ub[n + 1:n + 1 + k, :k], a_ub[n + 1:n + 1 + k, k + 1:] = eye, -eye
     a_ub[n + 1 + k:, :k], a_ub[n + 1 + k:, k + 1:] = -eye, -eye
-    b_ub = np.concatenate([-l0, [-floor], -c, c])
+    b_ub = np.concatenate([-np.asarray(l0, float), [-floor], -c, c])
     bounds = [(a, b) for a, b in zip(lo, hi)] + [(None, None)] + [(0.0, None)] * k
-    res = linprog(cost, A_ub=a_ub, b_ub=b_ub, A_eq=(np.concatenate([dm, np.zeros(k + 1)])
-                                                     / MISS_SCALE)[None, :],
-                  b_eq=[-m0 / MISS_SCALE], bounds=bounds, method="highs")
+    minimax = dict(c=cost, A_ub=a_ub, b_ub=b_ub,
+                   A_eq=(np.concatenate([dm, np.zeros(k + 1)]) / MISS_SCALE)[None, :],
+                   b_eq=[-m0 / MISS_SCALE], bounds=bounds)
+    row = np.concatenate([dm / MISS_SCALE, [-1.0]])
+    least = dict(c=np.concatenate([np.zeros(k), [1.0]]),
+                 A_ub=np.vstack([row, np.concatenate([-dm / MISS_SCALE, [-1.0]])]),
+                 b_ub=[-m0 / MISS_SCALE, m0 / MISS_SCALE],
+                 bounds=[(a, b) for a, b in zip(lo, hi)] + [(0.0, None)])
+    return minimax, least
+
+
+def lp_step(m0, l0, dm, G, c, c_max, trust, effort, floor):
+    """The linearised minimax step Delta of the weights (see the module docstring): the
+    minimax programme of :func:`lp_problems`, where it has no solution the least |miss|, where
+    that has none either no step."""
+    from scipy.optimize import linprog
+    k = len(c)
+    minimax, least = lp_problems(m0, l0, dm, G, c, c_max, trust, effort, floor)
+    res = linprog(**minimax, method="highs")
     if res.status == 0:
         return res.x[:k]
-    # the miss cannot be nulled within the step: the least |miss| (variables Delta, e)
-    cost = np.concatenate([np.zeros(k), [1.0]])
-    row = np.concatenate([dm / MISS_SCALE, [-1.0]])
-    a_ub = np.vstack([row, np.concatenate([-dm / MISS_SCALE, [-1.0]])])
-    res = linprog(cost, A_ub=a_ub, b_ub=[-m0 / MISS_SCALE, m0 / MISS_SCALE],
-                  bounds=[(a, b) for a, b in zip(lo, hi)] + [(0.0, None)], method="highs")
+    res = linprog(**least, method="highs")
     return res.x[:k] if res.status == 0 else np.zeros(k)
 
 

@@ -17,7 +17,6 @@ declared ones (a law's start values come as ``(names, array)``).
 from __future__ import annotations
 
 import ctypes
-import hashlib
 import math
 import os
 import shutil
@@ -65,33 +64,17 @@ def master_library(compiler: str | None = None) -> Path:
     MasterUnavailable
         No C compiler, or it failed on the master's source (the message says which).
     """
-    from descent_fmus.synthesis.fmi.native.build import (C_DIR, COMPILE_FLAGS,
-                                                         CompilerNotFoundError,
-                                                         NativeBuildError, compile_sources,
-                                                         find_compiler, platform_folder)
-    from descent_fmus.synthesis.paths import cache_dir
+    from descent_fmus.synthesis.fmi.native.build import (CompilerNotFoundError,
+                                                         NativeBuildError, cached_library,
+                                                         find_compiler)
     cc = compiler or find_compiler()
     if cc is None:
         raise MasterUnavailable("no C compiler found to build the C master (install gcc, or "
                                 "set CC)")
-    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, [(n, (C_DIR / n).read_bytes())
-                                                   for n in _SOURCES])).encode()).hexdigest()
-    lib = cache_dir() / "master" / f"master-{key[:16]}{platform_folder()[1]}"
-    if lib.is_file():
-        return lib
-    with _LOCK:
-        if lib.is_file():
-            return lib
-        lib.parent.mkdir(parents=True, exist_ok=True)
-        tmp = lib.with_name(f".{lib.name}.{os.getpid()}.{threading.get_ident()}")
-        try:               # another process may build it too: each writes its own file
-            compile_sources(C_DIR, ["master.c"], tmp, cc, libraries=("m", "dl"))
-            os.replace(tmp, lib)
-        except (CompilerNotFoundError, NativeBuildError) as exc:
-            raise MasterUnavailable(f"cannot build the C master: {exc}") from None
-        finally:
-            tmp.unlink(missing_ok=True)
-    return lib
+    try:
+        return cached_library("master", ["master.c"], _SOURCES[1:], cc, libraries=("m", "dl"))
+    except (CompilerNotFoundError, NativeBuildError) as exc:
+        raise MasterUnavailable(f"cannot build the C master: {exc}") from None
 
 
 def _dll(path: Path):

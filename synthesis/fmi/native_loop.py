@@ -40,19 +40,12 @@ _SET_INT = ctypes.CFUNCTYPE(_c_int, _c_void_p, ctypes.POINTER(ctypes.c_uint), _c
                             ctypes.POINTER(_c_int))
 
 
-def native_fmus(wiring: Wiring, plant_fmu, controller_fmu,
-                controller_values=None) -> tuple[Path, Path] | None:
+def native_fmus(wiring: Wiring, plant_fmu, controller_fmu) -> tuple[Path, Path] | None:
     """The native twins ``(plant, controller)`` of the wiring's generic FMUs, or None.
 
     The twins are ``<dir>/native/<identifier>.fmu`` beside the given FMUs, which must be the
     wiring's own (``<dir>/<identifier>.fmu``): a problem flying another FMU (an exported
-    controller with other defaults, a user's plant) has no twin.  Nor do the controller's
-    start values ``controller_values`` that set a parameter only the pythonfmu FMU implements
-    (``synthesis.fmi.native.controllers.PYTHON_ONLY``, e.g. the guided law's re-planner)."""
-    if controller_values:
-        from descent_fmus.synthesis.fmi.native.controllers import PYTHON_ONLY
-        if any(controller_values.get(name) for name in PYTHON_ONLY.get(wiring.controller, ())):
-            return None
+    controller with other defaults, a user's plant) has no twin."""
     out = []
     for path, ident in ((Path(plant_fmu), wiring.plant), (Path(controller_fmu),
                                                            wiring.controller)):

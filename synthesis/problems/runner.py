@@ -81,12 +81,10 @@ class Runner:
     race: Race | None = None
     native: bool | None = None
 
-    def choose(self, wiring: Wiring, plant_fmu, controller_fmu, record=(),
-               controller_values=None) -> tuple:
+    def choose(self, wiring: Wiring, plant_fmu, controller_fmu, record=()) -> tuple:
         """``(path, (plant FMU, controller FMU))``: the path :meth:`load` takes, in one word,
-        and the FMUs it flies (the native twins on a native path; not for controller start
-        values ``controller_values`` the twin does not implement)."""
-        twins = native_fmus(wiring, plant_fmu, controller_fmu, controller_values) \
+        and the FMUs it flies (the native twins on a native path)."""
+        twins = native_fmus(wiring, plant_fmu, controller_fmu) \
             if self.native is not False else None
         if self.native and twins is None:
             raise FMUNotFoundError(
@@ -98,12 +96,10 @@ class Runner:
         return ("container" if self.container and not record else "master"), \
             (plant_fmu, controller_fmu)
 
-    def load(self, wiring: Wiring, plant_fmu, controller_fmu, record=(),
-             controller_values=None):
+    def load(self, wiring: Wiring, plant_fmu, controller_fmu, record=()):
         """The loop the flights use, loaded once per process (recording needs the master); its
-        ``path`` names it.  ``controller_values``: start values every flight sets (see
-        :meth:`choose`)."""
-        path, fmus = self.choose(wiring, plant_fmu, controller_fmu, record, controller_values)
+        ``path`` names it."""
+        path, fmus = self.choose(wiring, plant_fmu, controller_fmu, record)
         if path == "native-c":
             from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop
             return CMasterLoop(wiring, *fmus)

@@ -28,7 +28,8 @@ from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 __all__ = ["C_DIR", "Variable", "CompilerNotFoundError", "NativeBuildError", "find_compiler",
-           "platform_folder", "build_fmu", "compile_sources", "COMPILE_FLAGS", "KINDS"]
+           "platform_folder", "build_fmu", "compile_sources", "cached_library", "COMPILE_FLAGS",
+           "KINDS"]
 
 #: The hand-written C files shipped as package data.
 C_DIR = Path(__file__).resolve().parent / "c"
@@ -152,6 +153,42 @@ def compile_sources(sources_dir: Path, files, library: Path, compiler: str | Non
     if not library.is_file():
         raise NativeBuildError(f"{Path(cc).name} wrote no {library.name}")
     return library
+
+
+_LIBRARY_LOCK = threading.Lock()
+
+
+def cached_library(stem: str, files, depends=(), compiler: str | None = None,
+                   libraries=("m",)) -> Path:
+    """The shared library of the C ``files`` of :data:`C_DIR`, compiled on first use into the
+    cache folder (:func:`synthesis.paths.cache_dir`) under a key of the compiler, the flags and
+    the sources (``files`` and the headers ``depends`` they include), then found there.  The
+    file is written under a private name and renamed, so parallel processes are safe.
+
+    Raises
+    ------
+    CompilerNotFoundError, NativeBuildError
+    """
+    from descent_fmus.synthesis.paths import cache_dir
+    cc = compiler or find_compiler()
+    if cc is None:
+        raise CompilerNotFoundError("no C compiler found (install gcc, or set CC)")
+    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, [(n, (C_DIR / n).read_bytes()) for n in
+                                                   (*files, *depends)])).encode()).hexdigest()
+    lib = cache_dir() / stem / f"{stem}-{key[:16]}{platform_folder()[1]}"
+    if lib.is_file():
+        return lib
+    with _LIBRARY_LOCK:
+        if lib.is_file():
+            return lib
+        lib.parent.mkdir(parents=True, exist_ok=True)
+        tmp = lib.with_name(f".{lib.name}.{os.getpid()}.{threading.get_ident()}")
+        try:               # another process may build it too: each writes its own file
+            compile_sources(C_DIR, list(files), tmp, cc, libraries=libraries)
+            os.replace(tmp, lib)
+        finally:
+            tmp.unlink(missing_ok=True)
+    return lib
 
 
 def _xml(identifier, guid, description, variables, source_files, experiment) -> str:

@@ -38,6 +38,8 @@ SENSING_FILES = ("estimator.h", "py_random.h", "plant_runtime.c", "plant_runtime
 SENSED_FILES = NO_FILES + SENSING_FILES + ("sensed_controller.h",)
 #: ... and every twin of S1's guidance (the cycle and the root search)
 GUIDANCE_FILES = ("guidance_cycle.h", "brent.h")
+#: ... and the guided law's re-planner (its loop and its linear programmes)
+REPLAN_FILES = ("replan.h", "lp.h")
 
 
 def slave_variables(cls) -> tuple[list, str]:
@@ -210,10 +212,10 @@ def build_sensed_controller(dest, compiler: str | None = None,
 
 def build_guided_controller(dest, compiler: str | None = None,
                             defaults: dict | None = None) -> Path:
-    """The native ``GuidedNetworkOperatorController`` with the correction c one number per
-    cycle (``c/guided_model.c``; the estimator's and the prediction's C generated from the
-    Python, :mod:`.sensing`, :mod:`.guidance`).  ``replan = 1`` is refused at initialisation:
-    the re-planner stays in the pythonfmu FMU."""
+    """The native ``GuidedNetworkOperatorController``: the correction c one number per cycle,
+    or (``replan = 1``) the plan over altitude re-solved every cycle (``c/guided_model.c``,
+    ``c/replan.h``, ``c/lp.h``; the estimator's and the prediction's C generated from the
+    Python, :mod:`.sensing`, :mod:`.guidance`)."""
     from descent_fmus.models.controllers.reentry_npc import GuidedNetworkOperatorController
     from descent_fmus.synthesis.fmi.native.guidance import guidance_constants, trace_guidance
     from descent_fmus.synthesis.fmi.native.sensing import sensing_sources
@@ -223,14 +225,15 @@ def build_guided_controller(dest, compiler: str | None = None,
                  VR_TOL="tol", VR_DTPRED="dt_pred", VR_CYCLE="cycle", VR_CORR="correction",
                  VR_MISS="predicted_miss", VR_SHE="scale_height_error",
                  VR_FACTOR_SD="drag_factor_sd", IX_REPLAN="replan", IX_MAXITER="max_iter",
-                 IX_NPRED="predictions")
+                 IX_NPRED="predictions", IX_RITER="replan_iterations",
+                 VR_TRUST="replan_trust", VR_EFFORT="replan_effort")
     constants = dict(_no_capacity(), SENSING_PROFILE="guided_profile",
                      **guidance_constants("guided"))
     generated = dict(sensing_sources(cls, "guided", [trace_guidance]),
                      **{"no_operations.h": interpreter_operations_h()})
     return _build_twin(cls, dest, "guided_model.c",
                        _sensing_config("guided", names, constants),
-                       SENSED_FILES + GUIDANCE_FILES, generated, compiler,
+                       SENSED_FILES + GUIDANCE_FILES + REPLAN_FILES, generated, compiler,
                        defaults)
 
 

@@ -16,7 +16,11 @@ into the same C unit as the controller's estimator (:mod:`.sensing`).  Of the gu
   (``in``: u, c, x1..x4, kd, the model's lam) -> the corrected, clipped control;
 * ``<prefix>_step(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.predict_step`
   (``in``: x1..x4, u, kd, lam, dt) -> the state, the outcome (0 OK, 1 EVENT, 2 DIVERGED) and,
-  at the EVENT, the down-range :func:`models.reentry.downrange` (else 0).
+  at the EVENT, the down-range :func:`models.reentry.downrange` (else 0);
+* ``<prefix>_load(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.predicted_load`
+  (``in``: x1..x4, u, kd, lam): the load the prediction samples and the re-planner's floor;
+* ``<prefix>_plan(r, iv, in, out)`` -- :func:`~models.controllers.reentry_replan.plan_value`
+  (``in``: the K weights, the altitude): the re-planned correction.
 
 Of the NPC (:func:`trace_npc`):
 
@@ -30,7 +34,10 @@ horizon, the range of a flight that does not reach hf).
 from __future__ import annotations
 
 from descent_fmus.models.controllers.reentry_npc import (HORIZON, NOT_REACHED, predict_range,
-                                                         predict_step, predicted_inputs)
+                                                         predict_step, predicted_inputs,
+                                                         predicted_load)
+from descent_fmus.models.controllers.reentry_replan import (FD_STEP, MISS_SCALE, PLAN_KNOTS,
+                                                            plan_value)
 from descent_fmus.models.integrators import DIVERGED, EVENT, OK
 from descent_fmus.models.reentry import U_BOUNDS, ReentryParams, altitude, downrange
 from descent_fmus.synthesis.fmi.native.plant_codegen import literal
@@ -83,7 +90,16 @@ def trace_guidance(code) -> None:
         rng = downrange(x, model.Rz) if outcome == EVENT else 0.0
         return list(x) + [float(OUTCOMES[outcome]), rng]
 
-    for stem, body in (("geometry", geometry), ("corrected", corrected), ("step", step)):
+    def load(tracer):
+        return [predicted_load(tuple(IN.sym(k) for k in range(4)), IN.sym(4), IN.sym(5),
+                               IN.sym(6), model)]
+
+    def plan(tracer):
+        return [plan_value([IN.sym(k) for k in range(len(PLAN_KNOTS))],
+                           IN.sym(len(PLAN_KNOTS)))]
+
+    for stem, body in (("geometry", geometry), ("corrected", corrected), ("step", step),
+                       ("load", load), ("plan", plan)):
         _trace(code, stem, body)
 
 
@@ -112,4 +128,6 @@ def guidance_constants(prefix: str) -> dict:
             "GUIDE_GEOMETRY": f"{prefix}_geometry", "GUIDE_CORRECTED": f"{prefix}_corrected",
             "GUIDE_STEP": f"{prefix}_step", "GUIDE_ALTITUDE": f"{prefix}_altitude",
             "GUIDE_RANGE": f"{prefix}_range", "GUIDE_U_MIN": literal(U_BOUNDS[0]),
-            "GUIDE_U_MAX": literal(U_BOUNDS[1])}
+            "GUIDE_U_MAX": literal(U_BOUNDS[1]), "GUIDE_LOAD": f"{prefix}_load",
+            "GUIDE_PLAN": f"{prefix}_plan", "PLAN_K": len(PLAN_KNOTS),
+            "PLAN_FD_STEP": literal(FD_STEP), "PLAN_MISS_SCALE": literal(MISS_SCALE)}

@@ -1,17 +1,21 @@
 /* guided_model.c -- the network-operator law with an on-board predictor-corrector
  * (GuidedNetworkOperatorController) as the model of a native FMU: the twin of the pythonfmu
- * class of models/controllers/reentry_npc.py, with the correction c one number per cycle
- * (replan = 0; the re-planner's linear programmes stay in the pythonfmu FMU).
+ * class of models/controllers/reentry_npc.py: the correction c one number per cycle (replan = 0),
+ * or a plan over altitude re-solved every cycle (replan = 1, replan.h; its linear programmes
+ * solved by lp.h where the Python calls SciPy's HiGHS).
  *
  * Everything of sensed_model.c (the generic controller, the estimator -- here the density-profile
  * fit) plus the guidance cycle: at the first output evaluation of a communication point at or
  * after the next correction time, above hf, the correction c in [-correction_max,
  * correction_max] whose predicted down-range is Lf is solved (brent.h: the predictor-corrector's
  * solve_control and SciPy's brentq), the prediction flying the nominal model with the fitted
- * profile and this guidance itself.  The arithmetic is generated from the Python functions
- * (<prefix>_sensing.c: GUIDE_GEOMETRY, GUIDE_CORRECTED, GUIDE_STEP, SENSING_PROFILE); what is
- * written here is their order, the loops and the state between calls, in the order of the
- * Python methods _outputs, _maybe_correct, _correct, _predictor and predict_flight.
+ * profile and this guidance itself.  With replan = 1 the weights of the plan are re-solved
+ * instead (replan.h), the predictions recording their loads, the floor of the plan's peak the
+ * running peak of the load at the navigated states (_track_peak).  The arithmetic is generated from the Python functions
+ * (<prefix>_sensing.c: GUIDE_GEOMETRY, GUIDE_CORRECTED, GUIDE_STEP, GUIDE_LOAD, GUIDE_PLAN,
+ * SENSING_PROFILE); what is written here is their order, the loops and the state between calls,
+ * in the order of the Python methods _outputs, _maybe_correct, _correct, _predictor,
+ * _track_peak and predict_flight.
  *
  * descent-fmus (MIT licence).
  */
@@ -24,6 +28,7 @@
 #include "sensed_controller.h"
 #include "brent.h"
 #include "guidance_cycle.h"
+#include "replan.h"
 
 MODEL_TABLES(VR_SAMPLE)
 
@@ -33,6 +38,7 @@ typedef struct {
     GuidanceCycle gc;
     double c, miss;                /* _c, _miss */
     int n_pred;                    /* _n_pred */
+    double plan[PLAN_K], peak;     /* _plan, _peak (replan = 1) */
 } Data;
 
 /* the cycle's callbacks' context: the model and the navigated state */
@@ -50,6 +56,8 @@ typedef struct {
     double kd, lam, log_factor;    /* the fitted profile */
     double dlam, h_now;
     int k_e, k_c, reads;
+    const double *plan;            /* the correction: the plan's value at the predicted altitude,
+                                      or (NULL) the constant c */
 } Prediction;
 
 static char message[PC_MSG];
@@ -68,9 +76,12 @@ const char *model_check(const ModelState *s)
     }
     if (ci != 0 && ci == ei)
         return "correction_input and estimate_input must differ";
-    if (s->i[IX_REPLAN] != 0)
-        return "replan = 1: the native GuidedNetworkOperatorController has no re-planner (fly "
-               "the pythonfmu GuidedNetworkOperatorController.fmu for it)";
+    if (s->i[IX_REPLAN] != 0 && !(GUIDE_HORIZON / s->r[VR_DTPRED] < RP_MAX_STEPS)) {
+        snprintf(message, sizeof message, "replan = 1 with dt_pred = %g s: a prediction of %g "
+                 "steps is more than the native re-planner records (dt_pred >= %g s)",
+                 s->r[VR_DTPRED], GUIDE_HORIZON / s->r[VR_DTPRED], GUIDE_HORIZON / RP_MAX_STEPS);
+        return message;
+    }
     return NULL;
 }
 
@@ -83,6 +94,8 @@ void model_prepare(ModelState *s)
     gc_prepare(&d->gc);
     d->c = d->miss = 0.0;
     d->n_pred = 0;
+    memset(d->plan, 0, sizeof d->plan);
+    d->peak = 0.0;
 }
 
 void model_reset(ModelState *s)
@@ -91,8 +104,8 @@ void model_reset(ModelState *s)
         model_prepare(s);
 }
 
-/* control(xp) of _predictor with the constant correction c: the law on the predicted state
-   plus the correction */
+/* control(xp) of _predictor with the correction c (the plan's value at the altitude of xp, if
+   the prediction flies a plan): the law on the predicted state plus the correction */
 static int control(const Prediction *p, const double *xp, double c, double *u)
 {
     const ModelState *s = p->s;
@@ -107,6 +120,14 @@ static int control(const Prediction *p, const double *xp, double c, double *u)
     in[6] = p->h_now;
     if (GUIDE_GEOMETRY(s->r, s->i, in, out) != PC_OK)
         return PC_ERROR;
+    if (p->plan != NULL) {
+        double pin[PLAN_K + 1], pout[1];
+        memcpy(pin, p->plan, sizeof(double) * PLAN_K);
+        pin[PLAN_K] = out[3];
+        if (GUIDE_PLAN(s->r, s->i, pin, pout) != PC_OK)
+            return PC_ERROR;
+        c = pout[0];
+    }
     memcpy(inputs, p->inputs, sizeof inputs);
     inputs[0] = out[0];
     inputs[1] = out[1];
@@ -134,15 +155,35 @@ static int control(const Prediction *p, const double *xp, double c, double *u)
     return PC_OK;
 }
 
-/* predict_range(x, control(c), kd, model, dt, lam) - Lf: predict_flight without the loads */
-static int predicted_miss(double c, void *ctx, double *miss)
+/* predicted_load(x, u, kd, lam, model) appended to loads[*n], if loads is not NULL */
+static int record(const Prediction *p, const double *x, double u, double *loads, int *n)
 {
-    const Prediction *p = (const Prediction *)ctx;
+    double in[7], out[1];
+    int k;
+    if (loads == NULL)
+        return PC_OK;
+    for (k = 0; k < 4; k++)
+        in[k] = x[k];
+    in[4] = u;
+    in[5] = p->kd;
+    in[6] = p->lam;
+    if (GUIDE_LOAD(p->s->r, p->s->i, in, out) != PC_OK)
+        return PC_ERROR;
+    loads[(*n)++] = out[0];
+    return PC_OK;
+}
+
+/* predict_flight(x, control(c), kd, model, dt, lam, record) - Lf: the miss, and the loads
+   (*n of them) if loads is not NULL */
+static int fly(const Prediction *p, double c, double *miss, double *loads, int *n)
+{
     double x[4], in[8], out[6], t = 0.0;
     int k;
     memcpy(x, p->x, sizeof x);
+    if (n != NULL)
+        *n = 0;
     while (t < GUIDE_HORIZON - 1e-9) {
-        if (control(p, x, c, &in[4]) != PC_OK)
+        if (control(p, x, c, &in[4]) != PC_OK || record(p, x, in[4], loads, n) != PC_OK)
             return PC_ERROR;
         for (k = 0; k < 4; k++)
             in[k] = x[k];
@@ -154,19 +195,74 @@ static int predicted_miss(double c, void *ctx, double *miss)
         for (k = 0; k < 4; k++)
             x[k] = out[k];
         if (out[4] == 1.0) {                        /* EVENT: h = hf reached */
+            if (record(p, x, in[4], loads, n) != PC_OK)
+                return PC_ERROR;
             *miss = out[5] - GUIDE_LF;
             return PC_OK;
         }
         if (out[4] != 0.0)                          /* diverged */
             break;
+        if (record(p, x, in[4], loads, n) != PC_OK)
+            return PC_ERROR;
         t += p->s->r[VR_DTPRED];
     }
     *miss = GUIDE_NOT_REACHED - GUIDE_LF;
     return PC_OK;
 }
 
-/* _correct(x): the profile, then the correction whose predicted miss is zero (h_now: the
-   altitude of x) */
+/* the miss of the constant correction c (predict_range) */
+static int predicted_miss(double c, void *ctx, double *miss)
+{
+    return fly((const Prediction *)ctx, c, miss, NULL, NULL);
+}
+
+/* evaluate(c) of _correct with replan = 1: the prediction under the plan's weights c */
+static int predicted_plan(const double *c, void *ctx, double *miss, double *loads, int *n)
+{
+    Prediction *p = (Prediction *)ctx;
+    int rc;
+    p->plan = c;
+    rc = fly(p, 0.0, miss, loads, n);
+    p->plan = NULL;
+    return rc;
+}
+
+/* the most samples one prediction records: two a step and one at hf */
+static int load_capacity(double dt)
+{
+    return 2 * (int)(GUIDE_HORIZON / dt + 2.0) + 1;
+}
+
+/* the estimator's profile(a_drag, nav): kd, lam, log factor */
+static int profile(ModelState *s, Data *d, double *prof)
+{
+    double in[3] = {0.0, 0.0, 0.0};
+    est_nominal(&d->est.e, s->r, in);
+    return SENSING_PROFILE(s->r, s->i, d->est.e.st, in, prof);
+}
+
+/* the re-planner's problem of this cycle (the parameters, the flown peak as the floor) */
+static int replan_problem(const ModelState *s, const Data *d, RpProblem *pb)
+{
+    const double steps = GUIDE_HORIZON / s->r[VR_DTPRED];
+    if (!(steps < RP_MAX_STEPS))    /* model_check refused it */
+        return PC_ERROR;
+    pb->k = PLAN_K;
+    pb->cap = 2 * (int)(steps + 2.0) + 1;     /* two samples a step, one at hf */
+    pb->c_max = s->r[VR_CMAX];
+    pb->trust = s->r[VR_TRUST];
+    pb->effort = s->r[VR_EFFORT];
+    pb->floor = d->peak;
+    pb->iterations = s->i[IX_RITER];
+    pb->tol = s->r[VR_TOL];
+    pb->max_iter = s->i[IX_MAXITER];
+    pb->fd_step = PLAN_FD_STEP;
+    pb->miss_scale = PLAN_MISS_SCALE;
+    return PC_OK;
+}
+
+/* _correct(x): the profile, then the correction whose predicted miss is zero -- or, with
+   replan = 1, the plan (h_now: the altitude of x) */
 static int correct(void *ctx, double h_now)
 {
     Now *now = (Now *)ctx;
@@ -174,11 +270,10 @@ static int correct(void *ctx, double h_now)
     Data *d = (Data *)s->data;
     const double *x = now->x;
     Prediction p;
-    double in[3] = {0.0, 0.0, 0.0}, prof[3], bound = s->r[VR_CMAX];
+    double prof[3], bound = s->r[VR_CMAX];
     const int nx = d->law.nx, ei = s->i[IX_ESTIMATE], ci = s->i[IX_CORRECTION];
     int k;
-    est_nominal(&d->est.e, s->r, in);
-    if (SENSING_PROFILE(s->r, s->i, d->est.e.st, in, prof) != PC_OK)
+    if (profile(s, d, prof) != PC_OK)
         return PC_ERROR;
     p.s = s;
     p.d = d;
@@ -195,6 +290,13 @@ static int correct(void *ctx, double h_now)
     p.k_e = ei > 0 && ei <= nx ? ei - 1 : -1;
     p.k_c = ci - 1;
     p.reads = ci > 0 && ci <= nx;
+    p.plan = NULL;
+    if (s->i[IX_REPLAN]) {
+        RpProblem pb;
+        if (replan_problem(s, d, &pb) != PC_OK)
+            return PC_ERROR;
+        return rp_replan(&pb, predicted_plan, &p, d->plan, &d->miss, &d->n_pred);
+    }
     return gc_solve(predicted_miss, &p, s->r[VR_TOL], s->i[IX_MAXITER], -bound, bound, &d->c,
                     &d->miss, &d->n_pred);
 }
@@ -210,6 +312,19 @@ static int altitude(void *ctx, double *h)
     if (GUIDE_GEOMETRY(now->s->r, now->s->i, in, out) != PC_OK)
         return PC_ERROR;
     *h = out[3];
+    return PC_OK;
+}
+
+/* _correction_at(x) with replan = 1: the plan's value at the altitude of the navigated state */
+static int plan_now(Now *now, const Data *d, double *c)
+{
+    double in[PLAN_K + 1], out[1];
+    if (altitude(now, &in[PLAN_K]) != PC_OK)
+        return PC_ERROR;
+    memcpy(in, d->plan, sizeof d->plan);
+    if (GUIDE_PLAN(now->s->r, now->s->i, in, out) != PC_OK)
+        return PC_ERROR;
+    *c = out[0];
     return PC_OK;
 }
 
@@ -229,6 +344,8 @@ void model_outputs(ModelState *s)
     if (active && !d->gc.failed) {
         if (gc_maybe_correct(&d->gc, s->r[VR_CYCLE], altitude, correct, &now) != PC_OK)
             gc_fail(&d->gc, "the guidance cycle");
+        if (s->i[IX_REPLAN] && !d->gc.failed && plan_now(&now, d, &d->c) != PC_OK)
+            gc_fail(&d->gc, "the plan's correction");
         if (reads)
             r[VR_X + ci - 1] = d->c;
     }
@@ -266,10 +383,30 @@ void model_outputs(ModelState *s)
     s->i[IX_NPRED] = d->n_pred;
 }
 
-/* do_step: commit the sample with the law's output u[1]; the time of the next evaluation */
+/* _track_peak(u): the running peak of the model's load at the navigated states (the plan's
+   floor); an arithmetic error leaves it as it is */
+static void track_peak(ModelState *s, Data *d, double u)
+{
+    double prof[3], in[7], out[1];
+    int k;
+    if (profile(s, d, prof) != PC_OK)
+        return;
+    for (k = 0; k < 4; k++)
+        in[k] = s->r[VR_NAV + k];
+    in[4] = u;
+    in[5] = prof[0];
+    in[6] = prof[1];
+    if (GUIDE_LOAD(s->r, s->i, in, out) == PC_OK && out[0] > d->peak)
+        d->peak = out[0];
+}
+
+/* do_step: with replan = 1 the peak so far; commit the sample with the law's output u[1]; the
+   time of the next evaluation */
 void model_step(ModelState *s, double t, double h)
 {
     Data *d = (Data *)s->data;
+    if (s->i[IX_REPLAN])
+        track_peak(s, d, s->r[VR_U]);
     est_run_step(&d->est, s->r, s->i, s->r[VR_U]);
     d->gc.t = t + h;
 }
