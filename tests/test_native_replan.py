@@ -202,3 +202,49 @@ def test_replan_twin_refuses_a_prediction_step_it_cannot_record(fmu_dir, guided_
         start(fmu, {"replan": 0, "dt_pred": 1e-4})       # the single correction records none
     finally:
         fmu.freeInstance()
+
+
+def test_problem_option_replan_flies_every_law_re_planned(fmu_dir):
+    # synthesize reentry-guided --option replan=1: the runner sets replan = 1 over every law's
+    # start values, on the evaluator's path (the law as an array) as on the Python master (a
+    # dict); the flights equal the Python master's with replan = 1 set by hand (the same
+    # native FMUs: bitwise) and differ from the single correction's
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem("reentry-guided")
+    twins = (fmu_dir / "native" / "Reentry.fmu",
+             fmu_dir / "native" / "GuidedNetworkOperatorController.fmu")
+    if not twins[1].is_file():
+        pytest.skip("no native twins in the FMU folder")
+    replanned = problem.with_option("replan", "1")
+    assert dict(replanned.controller_values) == {"replan": 1}
+    assert "replan 1" in replanned.source and replanned.source != problem.source
+    assert replanned.with_option("replan", "0").controller_values == ()
+    law = problem.basic()
+    states = replanned.initial_states[:3]
+    sub = replanned.with_(initial_states=states)
+    loop = sub.runner.load(sub.wiring, *problem.fmu_paths(fmu_dir))
+    try:
+        assert loop.path == "native-c"
+        got = [r.final for r in sub.runner.flights(loop, sub, law)]
+        single = [r.final for r in sub.runner.flights(loop, problem.with_(initial_states=states),
+                                                      law)]
+    finally:
+        loop.close()
+    with ClosedLoop(problem.wiring, *twins) as master:
+        want = [master.run(s, {**law.start_values(), "replan": 1}).final for s in states]
+    assert got == want
+    assert all(g["load_max"] != s["load_max"] for g, s in zip(got, single))
+
+
+@pytest.mark.parametrize("value", ["2", "yes", ""])
+def test_problem_option_replan_refuses_other_values(value):
+    from descent_fmus.synthesis.registry import get_problem
+    with pytest.raises(ValueError, match="replan must be 0 or 1"):
+        get_problem("reentry-guided").with_option("replan", value)
+
+
+@pytest.mark.parametrize("pairs", [(("replan",),), ((1, 1.0),), (("replan", float("nan")),)])
+def test_problem_controller_values_must_be_name_number_pairs(pairs):
+    from descent_fmus.synthesis.registry import get_problem
+    with pytest.raises(ValueError, match="controller_values"):
+        get_problem("reentry-guided").with_(controller_values=pairs)

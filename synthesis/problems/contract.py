@@ -229,6 +229,9 @@ class SynthesisProblem:
     input_scaling : {"given", "auto"}
         The basic law's input coordinates as given, or derived from its flights before the
         search (:mod:`synthesis.run.scaling`).
+    controller_values : tuple of (str, float)
+        Controller start values every flight sets over the law's own (a mode of the controller
+        the laws are searched for, e.g. the guided controller's on-board re-planner).
     """
 
     name: str
@@ -257,8 +260,14 @@ class SynthesisProblem:
     runner: Runner = Runner()
     options: tuple = ()
     input_scaling: str = "given"
+    controller_values: tuple = ()
 
     def __post_init__(self):
+        for pair in self.controller_values:
+            if len(pair) != 2 or not isinstance(pair[0], str) \
+                    or not math.isfinite(float(pair[1])):
+                raise ValueError(f"problem {self.name!r}: controller_values must be (name, "
+                                 f"finite number) pairs, got {pair!r}")
         if self.input_scaling not in ("given", "auto"):
             raise ValueError(f"problem {self.name!r}: input_scaling must be 'given' or 'auto', "
                              f"got {self.input_scaling!r}")

@@ -32,6 +32,8 @@ import warnings
 from dataclasses import dataclass
 from typing import Callable
 
+import numpy as np
+
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, Wiring
 from descent_fmus.synthesis.fmi.native_loop import native_fmus
 from descent_fmus.synthesis.paths import FMUNotFoundError
@@ -119,6 +121,12 @@ class Runner:
         # the native loop reads a law's start values as one array (the same names and values)
         sv = law.start_array() if getattr(loop, "takes_arrays", False) \
             and hasattr(law, "start_array") else law.start_values()
+        if problem.controller_values:       # the problem's controller mode over the law's values
+            names, values = zip(*problem.controller_values)
+            if isinstance(sv, tuple):
+                sv = (sv[0] + names, np.concatenate([sv[1], np.asarray(values, float)]))
+            else:
+                sv = {**sv, **dict(problem.controller_values)}
         record = bool(problem.record)
         states = problem.initial_states
         stops = set(self.race.sizes) if self.race is not None else set()

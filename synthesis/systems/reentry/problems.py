@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.methods.pareto import Target
-from descent_fmus.synthesis.problems.contract import SynthesisProblem, recipe
+from descent_fmus.synthesis.problems.contract import ProblemOption, SynthesisProblem, recipe
 from descent_fmus.synthesis.problems.runner import Race, Runner
 from descent_fmus.synthesis.systems.reentry.guidance import (GUIDED_WIRING, SENSED_WIRING,
                                                              guided_basic_law)
@@ -153,6 +153,24 @@ def nominal_problems() -> tuple:
     )
 
 
+def with_replan(problem, value: str):
+    """``problem`` with every flight re-planned on board (``value`` 1) or the single correction
+    (0): the guided controller's ``replan`` (natively 15 ms a flight, against 2.5 ms)."""
+    if value.strip() not in ("0", "1"):
+        raise ValueError(f"replan must be 0 or 1, got {value!r}")
+    flag = int(value)
+    kept = tuple(p for p in problem.controller_values if p[0] != "replan")
+    return problem.with_(controller_values=kept + ((("replan", flag),) if flag else ()),
+                         source=f"{problem.source}, replan {flag}")
+
+
+#: ``synthesize reentry-guided --option replan=1``: the laws searched with the re-planner in the
+#: loop (every flight re-plans on board) instead of the single correction.
+REPLAN_OPTION = ProblemOption("replan", "1: every flight re-plans the correction on board "
+                              "(the guided controller's replan = 1); 0: one correction c",
+                              with_replan)
+
+
 def set_problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
                  seed: int = SYNTHESIS_SEED) -> tuple:
     """``reentry-sensed``, ``reentry-sensed-y12`` and ``reentry-guided`` over the synthesis set
@@ -189,6 +207,7 @@ def set_problems(statistic_name: str = "mean", samples: int = SYNTHESIS_SAMPLES,
                    objective_labels=(labels[0], "J2 = median miss over the set [m]"),
                    **GUIDED_RECIPE, report=GuidedReport(),
                    target=Target(objective=0, constraint=1, limit=ON_TARGET),
+                   options=common["options"] + (REPLAN_OPTION,),
                    source=f"system reentry (set: {samples} samples, seed {seed}, median)"),
             description="S1 reentry, guided: a law u = phi(y1, y2, y3, c) plus the on-board "
                         "correction c (a predictor-corrector flying the law itself), min median "
