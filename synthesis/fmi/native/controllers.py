@@ -27,7 +27,6 @@ from descent_fmus.synthesis.fmi.native.ccode import interpreter_operations_h
 
 __all__ = ["slave_variables", "layout_config", "program_layout", "with_starts",
            "build_network_operator_controller", "build_program_controller", "NATIVE_CONTROLLERS",
-           "PYTHON_ONLY",
            "build_native_controllers"]
 
 #: Hand-written C files every twin of a network-operator controller ships.
@@ -254,11 +253,6 @@ def build_npc_controller(dest, compiler: str | None = None,
                                                                       [trace_npc]),
                        compiler, defaults)
 
-
-#: Parameters only the pythonfmu FMU implements, by model identifier: a non-zero value of one
-#: of them needs the pythonfmu FMU (the twin refuses it at initialisation; the re-planner's
-#: linear programmes are SciPy's HiGHS).
-PYTHON_ONLY = {"GuidedNetworkOperatorController": ("replan",)}
 
 #: The native twins by model identifier.
 NATIVE_CONTROLLERS = {"NetworkOperatorController": build_network_operator_controller,
