@@ -4,7 +4,7 @@ The native ``GuidedNetworkOperatorController`` solves the re-planner's linear pr
 small dense simplex method written in C (``c/lp.h``: the dual simplex tableau, one row per
 variable), where the pythonfmu controller calls SciPy's HiGHS.  :func:`linprog_c` runs the same
 C code on a problem stated as :func:`scipy.optimize.linprog` takes it, so the two can be
-compared (the tests) and timed (``benchmarks/replan_paths.py``).
+compared (the tests) and timed (``benchmarks/reentry_robust_replan.py``).
 """
 from __future__ import annotations
 
