@@ -31,6 +31,8 @@
 /* the most steps of one prediction whose loads the re-planner records (memory: 2 K doubles a
    step) */
 #define RP_MAX_STEPS 1e5
+/* the most weights of a plan (the buffers of one cycle live on the stack) */
+#define RP_K_MAX 32
 
 /* evaluate(c, ctx, &miss, loads, &n): the prediction under the weights c -- its miss and its n
    load samples in loads[0..n-1] (room for RpProblem.cap); PC_OK or PC_ERROR (Python raised) */
@@ -61,10 +63,11 @@ static int rp_lp_step(const RpProblem *pb, int n, double m0, const double *l0, c
     const int k = pb->k, nv = 2 * k + 1, rows = n + 1 + 2 * k;
     double *a = (double *)calloc((size_t)rows * nv, sizeof(double));
     double *b = (double *)malloc(sizeof(double) * (size_t)rows);
-    double cost[2 * 32 + 1], lo[2 * 32 + 1], hi[2 * 32 + 1], aeq[2 * 32 + 1], x[2 * 32 + 1];
+    double cost[2 * RP_K_MAX + 1], lo[2 * RP_K_MAX + 1], hi[2 * RP_K_MAX + 1],
+        aeq[2 * RP_K_MAX + 1], x[2 * RP_K_MAX + 1];
     double beq, value;
     int i, j, rc = PC_OK;
-    if (a == NULL || b == NULL || k > 32) {
+    if (a == NULL || b == NULL || k > RP_K_MAX) {
         rc = PC_ERROR;
         goto done;
     }
@@ -157,10 +160,11 @@ static int rp_replan(const RpProblem *pb, rp_eval evaluate, void *ctx, double *p
     const int k = pb->k, cap = pb->cap;
     double *loads = (double *)malloc(sizeof(double) * (size_t)(k + 1) * cap);
     double *g = (double *)malloc(sizeof(double) * (size_t)cap * (k > 0 ? k : 1));
-    double c[32], dm[32], step[32], cj[32], delta[32], m0, mj, offset, m;
-    int counts[33], it, i, j, n, evals, made = 0, rc = PC_ERROR;
+    double c[RP_K_MAX], dm[RP_K_MAX], step[RP_K_MAX], cj[RP_K_MAX], delta[RP_K_MAX];
+    double m0, mj, offset, m;
+    int counts[RP_K_MAX + 1], it, i, j, n, evals, made = 0, rc = PC_ERROR;
     RpOffset o;
-    if (loads == NULL || g == NULL || k > 32)
+    if (loads == NULL || g == NULL || k > RP_K_MAX)
         goto done;
     for (j = 0; j < k; j++)
         c[j] = rp_clip(plan[j], pb->c_max);
