@@ -146,14 +146,14 @@ def _bowl_objectives(laws):
 
 
 def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise",
-                 generations=7, patience=0, flights=0):
+                 generations=7, patience=0, flights=0, starts=1):
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
     psi[0, 3], psi[1, 3], psi[3, 4], psi[2, 4], psi[4, 5] = 1, 1, 1, 1, 1
     cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, basis_rule=basis_rule)
     refine = RefineConfig(evals=refine_evals, laws=2, basis=refine_basis,
-                          basis_patience=patience)
+                          basis_patience=patience, starts=starts)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, decode=_bowl_law, target=Target(0, 1, 100.0),
                          refine=refine, generations=generations, flights=flights)
@@ -275,6 +275,49 @@ def test_basis_refinement_goes_on_while_its_restarts_improve():
                 assert not all(failed[i + 1 - patience:i + 1])
         # the same seed flies the same search up to the budget, so going on can only help
         assert trace[:len(fixed)] == fixed and f[0] <= f_fixed[0] and f[1] < 100.0
+
+
+def _basis_starts(starts, state=None):
+    """Drive a GA through its basis refinement on the rippled bowl with ``starts`` searches
+    (restored from ``state`` if given): the basis' objectives after it, the searches' best
+    keys and seeds, the evaluations it took and a checkpoint taken in its middle."""
+    a = _refining_ga(3, refine_evals=0, refine_basis=400, starts=starts)
+    if state is not None:
+        a.load_state(state)
+    keys = seeds = mid = None
+    while True:
+        cands = a.ask()
+        if a._pending[0] == "children":
+            return a.pop[0].f, keys, seeds, a.evaluations, mid
+        s = a.refinement.searches if a._pending[0] == "refine" else None
+        F = _rippled_bowl([c.law for c in cands])
+        a.tell(F, np.zeros(len(F)))
+        if s is not None:
+            keys, seeds = [x.cma.best_key for x in s], [x.cma.seed for x in s]
+        if mid is None and a._pending is None and a.refinement.active and keys \
+                and keys[0][1] < np.inf:
+            mid = json.dumps(a.state())
+
+
+def test_basis_refinement_starts_search_several_basins_and_keep_the_best():
+    # refine starts (the rule's definition): `starts` CMA-ES searches on the basic solution,
+    # each with its own seed and the `basis` budget; the basis then takes the best of their
+    # laws.  The first search draws the same seed as a single start and flies the same
+    # candidates, so several starts can only do as well or better on the rippled bowl (local
+    # minima every 1/3 in each q)
+    f1, keys1, seeds1, evals1, _ = _basis_starts(1)
+    f3, keys3, seeds3, evals3, mid = _basis_starts(3)
+    assert len(seeds3) == 3 == len(set(seeds3)) and seeds3[0] == seeds1[0]
+    assert keys3[0] == keys1[0]
+    # whole CMA-ES generations: each search at most one generation (<= 16) past its budget
+    assert 3 * 400 <= evals3 - 16 < 3 * (400 + 16)
+    assert 400 <= evals1 - 16 < 400 + 16
+    best = min(keys3)
+    assert (f3[1] < 100.0) and f3[0] == pytest.approx(best[1], rel=1e-12)
+    assert f3[0] <= f1[0]
+    # a checkpoint taken in the middle of the three searches continues exactly
+    again = _basis_starts(3, state=json.loads(mid))
+    assert np.array_equal(again[0], f3) and again[3] == evals3
 
 
 def test_target_basis_rule_keeps_the_best_law_as_the_basis():

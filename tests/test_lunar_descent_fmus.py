@@ -97,7 +97,8 @@ def test_exported_law_reproduces_its_pareto_row(fmu_dir, tmp_path):
     # oracle: the Pareto row computed by the evaluator (Python master) vs fmpy simulate of the
     # exported closed-loop FMU
     problem = get_problem("lunar-descent").tuned(population=6, crossovers=2, lchr=2, epoch=2,
-                                                 generations=1, seed=3)
+                                                 generations=1, seed=3, refine_basis=200,
+                                                 refine_starts=1)
     s = run_synthesis(problem, tmp_path / "run", fmu_dir, progress=False)
     row = s["pareto"][0]
     rows = []

@@ -3,9 +3,10 @@ promising structures.
 
 The Gray-coded bit flips of the variational GA search q poorly on the rugged landscapes of
 closed-loop laws; CMA-ES adapts its steps and their correlations.  After the initial population
-(``basis`` evaluations on the basic solution alone; continued past them while its IPOP restarts
-still improve the law when the flight budget left could not hold two epochs of the structure
-search: ``basis_patience``) and after every epoch (``evals``
+(``basis`` evaluations on the basic solution alone -- ``starts`` independent searches of
+``basis`` each, the best going on; continued past them while its IPOP restarts still improve
+the law when the flight budget left could not hold two epochs of the structure search:
+``basis_patience``) and after every epoch (``evals``
 evaluations on each of the ``laws`` best members by the target, distinct structures), one
 CMA-ES per chosen member tunes q on the Gray code's grid; the best refined q replaces the
 member's.  A structure refined again continues its CMA-ES (mean, step size and covariance
@@ -60,6 +61,10 @@ class RefineConfig:
                            1e-12, 1e6)
     popsize: int = setting(0, "CMA-ES candidates per generation (0 = pycma's default "
                               "4 + 3 ln n)", 0, 10_000)
+    starts: int = setting(1, "independent CMA-ES searches on the basic solution, each with "
+                             "its own seed and the `basis` budget; the best one's law goes on "
+                             "(several basins of a multimodal landscape instead of one)",
+                          1, 64)
 
     def __post_init__(self):
         check_settings(self, "refine.")
@@ -186,11 +191,16 @@ class Refinement:
 
     def finish(self, pop, key) -> list:
         """End the refinement: ``(member index, bits, f, cv)`` of the members whose refined
-        parameters beat their own (the GA replaces them).  Every search stays in the pool
-        under its member's structure (``key(member)``) to continue later; beyond
-        ``4 * laws`` searches the oldest go."""
-        better = []
+        parameters beat their own (the GA replaces them); of several searches on one member
+        (``starts``) the best counts.  Every search kept stays in the pool under its member's
+        structure (``key(member)``) to continue later; beyond ``4 * laws`` searches the oldest
+        go."""
+        better, best = [], {}
         for s in self.searches:
+            b = best.get(s.member)
+            if b is None or self.target.better(s.best_f, b.best_f, s.best_cv, b.best_cv):
+                best[s.member] = s
+        for s in best.values():
             m = pop[s.member]
             bits = m.bits
             if self.target.better(s.best_f, m.f, s.best_cv, m.cv):

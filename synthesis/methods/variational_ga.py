@@ -408,12 +408,13 @@ class VariationalGA(Method):
         return hashlib.sha1(self.matrix(m).tobytes()).hexdigest()
 
     def _start_refine(self, basis: bool = False) -> None:
-        """Refine member 0 alone (``basis``) or the ``laws`` best members by the target with
-        distinct structures (feasible first)."""
+        """Refine member 0 alone (``basis``: ``starts`` searches) or the ``laws`` best members
+        by the target with distinct structures (feasible first)."""
         self._basis_refining, patience = basis, 0
         if basis:
-            picks, budget = [0], self.refine_cfg.basis
-            left = self.flights - self.evaluations - budget if self.flights else None
+            picks, budget = [0] * self.refine_cfg.starts, self.refine_cfg.basis
+            left = self.flights - self.evaluations - budget * len(picks) if self.flights \
+                else None
             patience = self.refine_cfg.patience_for(left, self.cfg.epoch * 4 * self.cfg.crossovers)
         else:
             picks, seen = [], set()

@@ -84,7 +84,7 @@ fixed-structure baselines).  The format, key by key::
     basis_patience = 1                    # ... on while its restarts improve, if no epoch fits
     evals = 200                           # per refined law after every epoch
     laws = 1                              # laws refined per epoch
-    # sigma = 0.3  popsize = 0
+    # sigma = 0.3  popsize = 0  starts = 1
 
     [target]                              # the single objective of CMA-ES (refinement, baselines)
     objective = "miss"                    # minimise this objective ...

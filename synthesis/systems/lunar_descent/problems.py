@@ -201,12 +201,15 @@ class LunarDescentReport(Report):
         return out
 
 
-#: Default budget of ``descent-fmus synthesize lunar-descent`` [choice]: a flight costs about
-#: 15 ms through the FMUs and a law 5 flights, so this is ~12 000 evaluations, well under 15 min
-#: on 2 cores (measured run: models/README.md).
+#: Default budget of ``descent-fmus synthesize lunar-descent`` [choice]: six independent CMA-ES
+#: searches of 8 000 laws on the basic law's gains (``refine_starts``: one search settles in
+#: one basin of a multimodal J1 within its first few thousand laws; over 12 seeds one search
+#: ends at or below 0.1 m on 4 of them, so six reach such a basin on ~9 runs in 10), then the
+#: structure search with 500 CMA-ES laws per epoch on promising forms.  54 000 laws take about
+#: 2 min on the native twins (measured runs: docs/systems/lunar_descent.md).
 LUNAR_DESCENT_RECIPE = recipe(population=128, generations=1000, crossovers=32, lchr=8, epoch=10,
-                              seed=1, flights=14_000, refine_basis=8000, refine_evals=500,
-                              refine_basis_patience=0)
+                              seed=1, flights=54_000, refine_basis=8000, refine_starts=6,
+                              refine_evals=500, refine_basis_patience=0)
 #: Gray code of the parameters [choice]: 7 + 31 bits over [-64, 64) -- the basic law's gain
 #: q8 = 16 sits on the edge of the former [-16, 16), and the former grid of 2^-11 held the
 #: CMA-ES refinement to J1 ~ 1.8 m where a continuous CMA-ES over the same gains reaches
