@@ -403,7 +403,7 @@ def main(argv=None):
             print(f"\nwall time of this invocation: {wall:.0f} s ({os.cpu_count()} cores)")
     if args.plot:
         plot(table, args.plot)
-        print(f"figure: {args.plot}")
+        print(f"figure: {args.plot}", file=sys.stderr if args.json else sys.stdout)
 
 
 if __name__ == "__main__":

@@ -210,10 +210,10 @@ class LunarDescentReport(Report):
 LUNAR_DESCENT_RECIPE = recipe(population=128, generations=1000, crossovers=32, lchr=8, epoch=10,
                               seed=1, flights=54_000, refine_basis=8000, refine_starts=6,
                               refine_evals=500, refine_basis_patience=0)
-#: Gray code of the parameters [choice]: 7 + 31 bits over [-64, 64) -- the basic law's gain
-#: q8 = 16 sits on the edge of the former [-16, 16), and the former grid of 2^-11 held the
-#: CMA-ES refinement to J1 ~ 1.8 m where a continuous CMA-ES over the same gains reaches
-#: 0.017 m; the grid is now 4.7e-10.
+#: Gray code of the parameters [choice]: 11 + 31 bits over [-1024, 1024) -- the basic law's
+#: gain q8 = 16 sat on the edge of the former [-16, 16) and the refined gains reach hundreds,
+#: and the former grid of 2^-11 held the CMA-ES refinement to J1 ~ 1.8 m where a continuous
+#: CMA-ES over the same gains reaches 0.017 m; the grid is now 4.7e-10.
 Q_BITS = (11, 31, -1024.0, 1024.0)
 
 #: Objectives of a law whose evaluation failed: twice the worst per-state penalty.
