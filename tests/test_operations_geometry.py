@@ -226,6 +226,10 @@ def test_python_interpreter_and_exported_c_agree_bitwise(interpreter, tmp_path):
     # (the law loaded as start values) = law.c, bitwise
     rng = np.random.default_rng(37)
     laws = [polar_law()] + [random_geometry_law(rng) for _ in range(8)]
+    # the sample holds atan2 nodes with 0, 1 and more incoming arcs, hypot nodes with 1 and more
+    kinds = {(int(law.psi[j, j]), min(2, int(np.count_nonzero(law.psi[:j, j]))))
+             for law in laws for j in range(law.nx + len(law.q), law.size)}
+    assert {(ATAN2, 0), (ATAN2, 1), (ATAN2, 2), (HYPOT, 1), (HYPOT, 2)} <= kinds
     exported = _laws_as_c(tmp_path, laws)
     D = ctypes.c_double
     n = 0
