@@ -98,6 +98,12 @@ fixed-structure baselines).  The format, key by key::
     # mine = { kind = "file", file = "law.json" }
     # any kind may give its own inputs' scale = [...] and offset = [...]
 
+    [gp]                                  # optional: the GP baseline (synthesize --method gp)
+    population = 200                      # individuals per generation (one tree per output)
+    tournament = 3
+    # p_crossover = 0.5  p_mutation = 0.1  max_depth = 17  init_depth = 2  mutation_depth = 2
+    # const_range = 1.0                   # ephemeral constants uniform in [-1, 1]
+
 For compatibility with older files, ``generations`` and ``seed`` are also read from ``[ga]``.
 Every error names the file, the key and the problem (:class:`ProblemFileError`); nothing is
 written before the file has been checked against the plant FMU's model description.
@@ -131,7 +137,7 @@ except ModuleNotFoundError:              # Python 3.10
 __all__ = ["ProblemFileError", "load_problem_file", "FileObjectives"]
 
 _TOP = {"problem", "plant", "controller", "simulation", "initial_states", "objectives",
-        "constraints", "basic_law", "budget", "ga", "refine", "target", "baselines"}
+        "constraints", "basic_law", "budget", "ga", "refine", "target", "baselines", "gp"}
 _KEYS = {
     "problem": {"name", "description"},
     "plant": {"fmu", "parameters"},
