@@ -182,9 +182,10 @@ class GeneticProgramming(Method):
         """Objective rows and violations of the laws of the last :meth:`ask`."""
         if self._pending is None:
             raise RuntimeError("tell() without a pending ask()")
-        F = np.atleast_2d(np.asarray(F, float)).reshape(len(self._pending), -1)
-        cv = np.zeros(len(F)) if cv is None else np.asarray(cv, float)
-        if not np.all(np.isfinite(F)) or cv.shape != (len(F),):
+        n = len(self._pending)                # 0: no offspring changed (a small population)
+        F = np.asarray(F, float).reshape(n, -1) if n else np.zeros((0, 1))
+        cv = np.zeros(n) if cv is None else np.asarray(cv, float).reshape(-1)
+        if not np.all(np.isfinite(F)) or cv.shape != (n,):
             raise ValueError(f"expected {len(self._pending)} finite objective rows")
         for i, key in zip(self._pending, self.target.keys(F, cv)):
             self.population[i].fitness.values = key
