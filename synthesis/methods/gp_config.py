@@ -22,8 +22,8 @@ class GPConfig:
     p_mutation: float = setting(0.1, "GP probability that an offspring's tree (one output's) "
                                      "gets a new random sub-tree", 0.0, 1.0)
     max_depth: int = setting(17, "GP static depth limit of a tree (an offspring beyond it, or "
-                                 "beyond the controller FMU's nodes and parameters, is "
-                                 "replaced by its parent)", 1, 90)
+                                 "beyond the controller FMU's nodes and parameters, keeps a "
+                                 "parent's tree)", 1, 90)
     init_depth: int = setting(2, "GP largest depth of the initial trees (ramped "
                                  "half-and-half from depth 1)", 1, 17)
     mutation_depth: int = setting(2, "GP largest depth of a mutation's new sub-tree", 0, 17)
