@@ -199,3 +199,18 @@ def test_gp_flies_through_the_run_loop_reproducibly_and_resumes(hopper_dir, tmp_
     assert a["flights"] == c["flights"] >= 16
     rows = json.loads((tmp_path / "a" / "pareto.json").read_text())
     assert all(len(r["trees"]) == 1 for r in rows)     # one tree per output, reported
+
+
+def test_gp_is_registered_for_every_problem_with_the_problems_operations():
+    from descent_fmus.synthesis.methods.registry import make_method, method_names
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem("reentry").tuned(gp_population=6, seed=4)
+    assert "gp" in method_names(problem)
+    m = make_method("gp", problem)
+    assert isinstance(m, GeneticProgramming) and m.config.population == 6
+    ops = {a: sorted(k for n, k in m.pset.law_ops.items() if m.pset.mapping[n].arity == a)
+           for a in (1, 2)}
+    assert ops == {1: sorted(set(problem.unary) - {1}), 2: sorted(problem.binary)}
+    laws = [c.law for c in m.ask()]
+    assert len(laws) == 6 and all(law.nx == problem.basic().nx for law in laws)
+    assert all(law.bounds == problem.basic().bounds for law in laws)
