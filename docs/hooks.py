@@ -16,6 +16,9 @@
   (:mod:`descent_fmus.synthesis.methods.settings`), the problem's
   (:mod:`descent_fmus.synthesis.problems.limits`) and the run's
   (:mod:`descent_fmus.synthesis.run.resources`).
+* ``<!-- operations -->`` becomes the tables of the network operator's unary and binary
+  operations, read from the one operation table (:mod:`descent_fmus.models.controllers.
+  network_operator`): number, name, guarded definition, unit element.
 
 mkdocs.yml names this file under ``hooks:``; it imports the installed package.
 """
@@ -28,6 +31,7 @@ PARAMETERS = re.compile(r"^<!--\s*parameters:\s*([a-z_]+)\s*-->[ \t]*$", re.MULT
 OPTIONS = re.compile(r"^<!--\s*options:\s*([a-z0-9_ -]+?)\s*-->[ \t]*$", re.MULTILINE)
 FORMAT = re.compile(r"^<!--\s*problem-file-format\s*-->[ \t]*$", re.MULTILINE)
 LIMITS = re.compile(r"^<!--\s*limits\s*-->[ \t]*$", re.MULTILINE)
+OPERATIONS = re.compile(r"^<!--\s*operations\s*-->[ \t]*$", re.MULTILINE)
 
 
 def parameter_section(stem: str) -> str:
@@ -134,8 +138,25 @@ def limits_table() -> str:
     return "\n".join(lines)
 
 
+def operations_table() -> str:
+    """The unary and the binary operations, as the one operation table defines them."""
+    from descent_fmus.models.controllers.network_operator import BINARY_OPS, UNARY_OPS
+
+    def unit(v):
+        return "NaN (the first arc sets the node)" if v != v else f"{v:g}"
+
+    lines = ["| unary ρ | name | ρ(z) |", "| --- | --- | --- |"]
+    lines += [f"| {op.number} | `{op.name}` | `{op.expr}` |" for op in UNARY_OPS[1:]]
+    lines += ["", "| binary χ | name | χ(a, b): a the node's value, b the arc's | unit |",
+              "| --- | --- | --- | --- |"]
+    lines += [f"| {op.number} | `{op.name}` | `{op.expr}` | {unit(op.unit)} |"
+              for op in BINARY_OPS[1:]]
+    return "\n".join(lines)
+
+
 def on_page_markdown(markdown, page, config, files):
     markdown = LIMITS.sub(lambda m: limits_table(), markdown)
+    markdown = OPERATIONS.sub(lambda m: operations_table(), markdown)
     markdown = PARAMETERS.sub(lambda m: parameter_section(m.group(1)), markdown)
     markdown = FORMAT.sub(lambda m: problem_file_format(), markdown)
     return OPTIONS.sub(lambda m: options_section(m.group(1)), markdown)

@@ -128,10 +128,12 @@ def test_network_operator_twin_equals_the_pythonfmu_controller(pair):
 
 
 #: Bad start values of the NetworkOperatorController: each is refused at
-#: exitInitializationMode with the words of the Python controller.
+#: exitInitializationMode with the words of the Python controller (operation numbers one past
+#: the tables).
 BAD_NO = [{"nx": 9}, {"nq": -1}, {"nu": 0}, {"u_min[1]": 1.0}, {"u_max[1]": math.inf},
-          {"q[2]": math.nan}, {"x_scale[2]": -math.inf}, {"psi[7,7]": 9}, {"psi[7,7]": -2},
-          {"psi[3,3]": 1}, {"psi[1,3]": 1}, {"psi[1,9]": 29}, {"out[1]": 33}, {"nu": 2},
+          {"q[2]": math.nan}, {"x_scale[2]": -math.inf}, {"psi[7,7]": len(BINARY)},
+          {"psi[7,7]": -2}, {"psi[3,3]": 1}, {"psi[1,3]": 1}, {"psi[1,9]": len(UNARY)},
+          {"out[1]": 33}, {"nu": 2},
           {"sample_period": -1.0}, {"sample_period": math.inf},
           {"u_min[1]": 1e-05, "u_max[1]": 1e-06}]
 #: ... and of the ProgramController
@@ -144,7 +146,7 @@ BAD_PROGRAM = [{"n_nodes": 1}, {"n_nodes": 300}, {"grid": 2}, {"t_end": -1.0},
 #: ... of the DragEstimator and the SensedNetworkOperatorController (the estimator's parameters:
 #: their check is traced from the Python dataclass)
 BAD_DRAG = [{"threshold": 0.0}, {"noise": -1.0}, {"bias": math.inf}, {"threshold": math.nan}]
-BAD_SENSED = [{"nx": 9}, {"psi[7,7]": 9}, {"noise": -0.5}, {"estimate_input": 9},
+BAD_SENSED = [{"nx": 9}, {"psi[7,7]": len(BINARY)}, {"noise": -0.5}, {"estimate_input": 9},
               {"estimate_input": -1}, {"threshold": -1.0}]
 
 

@@ -8,7 +8,9 @@ Source nodes ``1..nx`` hold the inputs, nodes ``nx+1..nx+nq`` the parameters q.
 Evaluation (Diveev & Sofronova 2007): a non-source node starts at the unit element of its
 binary operation; for ``i = 1..L-1`` and every ``j > i`` with ``psi[i][j] != 0`` and
 ``psi[j][j] != 0``: ``z_j <- chi_{psi_jj}(z_j, rho_{psi_ij}(z_i))``.  The outputs are the values of
-the output nodes (the last node by default).
+the output nodes (the last node by default).  ``atan2`` has no unit element: its "unit" is NaN
+(no value yet) and its first incoming arc sets the node, later arcs fold ``a <- atan2(a, b)``;
+a node without incoming arcs holds ``finite(unit)`` (0 for atan2, the unit for the others).
 
 Every operation is overflow-safe: values are clamped to ``[-BIG, BIG]`` (BIG = 1e8, the authors'
 "infinity") after every operation, and a NaN becomes 0, so the law never returns NaN or inf.
@@ -33,7 +35,8 @@ from descent_fmus.models.fmu_support import ParameterError, SlaveBase
 __all__ = ["BIG", "UNARY", "BINARY", "UNIT", "UNARY_NAMES", "BINARY_NAMES", "compile_law",
            "evaluate", "NetworkOperatorController", "L_MAX", "NX_MAX", "NQ_MAX", "NU_MAX",
            "MatrixError", "Operation", "UNARY_OPS", "BINARY_OPS", "CONSTANTS", "HELPERS",
-           "FUNCTIONS", "python_function", "finite", "DESCRIPTIONS"]
+           "FUNCTIONS", "python_function", "finite", "DESCRIPTIONS", "operation_numbers",
+           "OperationNameError"]
 
 #: The authors' "infinity": every node value is clamped to [-BIG, BIG].
 BIG = 1e8
@@ -63,7 +66,7 @@ class MatrixError(ValueError):
 
 #: Named constants of the operation language (values as Python computes them).
 CONSTANTS = {"BIG": BIG, "EPS5": _EPS5, "EPS": _EPS, "LN_BIG": _LN_BIG,
-             "LOG_EPS": math.log(_EPS)}
+             "LOG_EPS": math.log(_EPS), "PI": math.pi, "TWO_PI": 2.0 * math.pi}
 #: Helper functions of the operation language, themselves expressions: name -> (operands,
 #: expr).  ``finite`` is the clamp after every operation (written inline in :func:`evaluate`),
 #: ``clip`` the output bounds, ``scale`` the input scaling.
@@ -75,8 +78,12 @@ HELPERS = {
     "scale": ("v, s, o", "s * (v - o)"),
 }
 #: Functions of the C math library the language may call (Python: ``math`` and ``abs``/``max``;
-#: ``max(x, y)`` is Python's builtin: y if y > x else x).
-FUNCTIONS = ("abs", "max", "sqrt", "exp", "log", "tanh", "cos", "sin", "atan", "cbrt")
+#: ``max(x, y)`` is Python's builtin: y if y > x else x).  Each gives the same double in Python
+#: and C: ``math.atan2`` is libm's atan2 (CPython answers y = 0 and infinities itself, as C99
+#: Annex F does), ``math.remainder`` is CPython's own but IEEE's remainder is exact.  Not
+#: ``math.hypot``: CPython's differs from libm's (hypot is written with ``sqrt``).
+FUNCTIONS = ("abs", "max", "sqrt", "exp", "log", "tanh", "cos", "sin", "atan", "cbrt", "atan2",
+             "remainder")
 
 
 @dataclass(frozen=True)
@@ -103,6 +110,9 @@ class Operation:
     latex : str
         LaTeX of a named function, ``#`` standing for the operand (default
         ``\\operatorname{name}(#)``).
+    first : str
+        Binary operations: the node's value after its first incoming arc ``b`` (the fold from
+        the unit, ``chi(unit, b)``, without guards) in SymPy's syntax: ``b`` for all but hypot.
     """
 
     number: int
@@ -112,6 +122,7 @@ class Operation:
     unit: float | None = None
     sym: str = ""
     latex: str = ""
+    first: str = "b"
 
 
 _UNARY_OPS = (
@@ -147,6 +158,9 @@ _UNARY_OPS = (
     Operation(27, "circ", "sgn(z) * (1.0 - sqrt(1.0 - z * z)) if abs(z) < 1.0 else sgn(z)",
               "circ({})"),
     Operation(28, "gauss", "z * (1.0 - exp(-z * z))", "gauss({})", sym="z*(1 - exp(-z**2))"),
+    # the angle z wrapped to (-pi, pi]: IEEE remainder is exact, so the same double in C
+    Operation(29, "wrap", "PI if remainder(z, TWO_PI) == -PI else remainder(z, TWO_PI)",
+              "wrap({})", latex=r"\operatorname{wrap}\left(#\right)"),
 )
 #: Binary operations (unit elements: -inf/+inf of max/min are -BIG/+BIG).
 _BINARY_OPS = (
@@ -158,6 +172,11 @@ _BINARY_OPS = (
     Operation(6, "norm", "sgn(a + b) * sqrt(a * a + b * b)", "norm", 0.0),
     Operation(7, "sabs", "sgn(a + b) * (abs(a) + abs(b))", "sabs", 0.0),
     Operation(8, "smax", "sgn(a + b) * max(abs(a), abs(b))", "smax", 0.0),
+    # [choice] atan2 has no unit: NaN (no value yet), the first arc sets the node, later arcs
+    # fold a <- atan2(a, b) (docs/methods/network_operator.md)
+    Operation(9, "atan2", "b if a != a else atan2(a, b)", "atan2", math.nan),
+    # node values are clamped to 1e8 and arcs stay below 1e24: a*a + b*b cannot overflow
+    Operation(10, "hypot", "sqrt(a * a + b * b)", "hypot", 0.0, first="Abs(b)"),
 )
 #: Unary operations rho_k and binary operations chi_k by number (index 0 unused).
 UNARY_OPS = (None,) + _UNARY_OPS
@@ -189,8 +208,44 @@ UNARY_NAMES = [None] + [op.text for op in _UNARY_OPS]
 #: Binary operations chi_k (index 0 unused): 1 +, 2 *, 3 max, 4 min, then the wider set.
 BINARY = [None] + [python_function(op, binary=True) for op in _BINARY_OPS]
 BINARY_NAMES = [None] + [op.text for op in _BINARY_OPS]
-#: Unit elements of the binary operations (-inf/+inf of max/min are -BIG/+BIG).
+#: Unit elements of the binary operations (-inf/+inf of max/min are -BIG/+BIG; atan2: NaN).
 UNIT = [None] + [op.unit for op in _BINARY_OPS]
+#: A value as the law holds it: NaN -> 0, clamped to [-BIG, BIG].
+finite = _NS["finite"]
+
+
+class OperationNameError(ValueError):
+    """An operation named or numbered outside the tables."""
+
+
+def operation_numbers(items, binary: bool = False) -> tuple:
+    """The operation numbers of ``items`` -- numbers or names (``"atan2"``, ``"wrap"``; the
+    ``name`` of :class:`Operation`) -- of the unary (or binary) table, in their order.
+
+    Raises
+    ------
+    OperationNameError
+        An unknown name or number (the message lists the valid ones), or an empty list.
+    """
+    ops = _BINARY_OPS if binary else _UNARY_OPS
+    kind = "binary" if binary else "unary"
+    by_name = {op.name: op.number for op in ops}
+    if isinstance(items, (str, int)):
+        items = [items]
+    out = []
+    for v in items:
+        if isinstance(v, str) and v.strip().isdigit():
+            v = int(v)
+        if isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= len(ops):
+            out.append(v)
+        elif isinstance(v, str) and v.strip() in by_name:
+            out.append(by_name[v.strip()])
+        else:
+            raise OperationNameError(f"unknown {kind} operation {v!r}; valid: "
+                                     + ", ".join(f"{op.number} {op.name}" for op in ops))
+    if not out:
+        raise OperationNameError(f"give at least one {kind} operation")
+    return tuple(out)
 
 
 def compile_law(psi, nx: int, nq: int, outputs):
@@ -250,21 +305,18 @@ def compile_law(psi, nx: int, nq: int, outputs):
                                       f"(psi[{i + 1},{j + 1}]); valid: 1..{len(UNARY) - 1}")
                 if j < ns:
                     raise MatrixError(f"arc {i + 1}->{j + 1} ends in source node {j + 1}")
-    for j in range(ns, L):
-        b = int(rows[j][j])
-        init[j] = UNIT[b] if b else 0.0
     arcs = [(i, j, UNARY[int(rows[i][j])], BINARY[int(rows[j][j])])
             for i in range(L) for j in range(i + 1, L) if rows[i][j] and rows[j][j]]
+    fed = {j for _, j, _, _ in arcs}
+    for j in range(ns, L):          # the unit; finite(unit) (atan2: 0) on a node without arcs
+        b = int(rows[j][j])
+        init[j] = (UNIT[b] if j in fed else finite(UNIT[b])) if b else 0.0
     outs = []
     for k, o in enumerate(outputs):
         if not 1 <= int(o) <= L:
             raise MatrixError(f"output {k + 1} names node {o}, outside 1..{L}")
         outs.append(int(o) - 1)
     return L, init, arcs, outs
-
-
-#: A value as the law holds it: NaN -> 0, clamped to [-BIG, BIG].
-finite = _NS["finite"]
 
 
 def evaluate(program, sources):

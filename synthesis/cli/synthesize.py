@@ -36,6 +36,19 @@ def _setting_type(info, flag: str):
     return convert
 
 
+def _operations(binary: bool):
+    """An argparse type: comma-separated operation names or numbers -> their numbers."""
+    def convert(text: str) -> tuple:
+        from descent_fmus.models.controllers.network_operator import (OperationNameError,
+                                                                      operation_numbers)
+        try:
+            return operation_numbers(text.split(","), binary=binary)
+        except OperationNameError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+    convert.__name__ = "binary" if binary else "unary"
+    return convert
+
+
 def _add_setting_options(p) -> None:
     from descent_fmus.synthesis.methods.settings import settings_of
     from descent_fmus.synthesis.problems.contract import SETTING_GROUPS
@@ -78,6 +91,12 @@ def add_synthesize_command(sub) -> None:
                         "(default: the problem's own)")
     p.add_argument("--wide-ops", action="store_true",
                    help="let variations use the authors' wider operation set (28 unary, 4 binary)")
+    p.add_argument("--unary", metavar="OPS", default=None, type=_operations(False),
+                   help="the unary operations variations may use, names or numbers separated by "
+                        "commas, e.g. id,neg,sin,cos,wrap (default: the problem's own; "
+                        "docs/methods/network_operator.md lists them)")
+    p.add_argument("--binary", metavar="OPS", default=None, type=_operations(True),
+                   help="the binary operations variations may use, e.g. add,mul,atan2,hypot")
     p.add_argument("--workers", type=int_at_least(1, MAX_WORKERS), default=2,
                    help=f"local worker processes [1..{MAX_WORKERS}]")
     p.add_argument("--scheduler", help="Dask scheduler address (tcp://HOST:PORT): evaluate on "
@@ -123,7 +142,8 @@ def load_problem(args):
 
 def apply_options(problem, args):
     """``problem`` with the command line's ``--option``/``--statistic`` variants, recipe
-    settings and ``--wide-ops`` (CliError for anything it cannot take)."""
+    settings, ``--wide-ops`` and ``--unary``/``--binary`` (CliError for anything it cannot
+    take)."""
     from descent_fmus.synthesis.methods.settings import SettingError, settings_of
     from descent_fmus.synthesis.methods.variational_ga import WIDE_BINARY, WIDE_UNARY
     from descent_fmus.synthesis.problems.contract import SETTING_GROUPS
@@ -144,6 +164,9 @@ def apply_options(problem, args):
         raise CliError(str(exc)) from None
     if args.wide_ops:
         problem = problem.with_(unary=WIDE_UNARY, binary=WIDE_BINARY)
+    for kind in ("unary", "binary"):
+        if getattr(args, kind, None) is not None:
+            problem = problem.with_(**{kind: args.__dict__[kind]})
     if args.input_scaling:
         problem = problem.with_(input_scaling=args.input_scaling)
     return problem

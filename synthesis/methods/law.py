@@ -17,9 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.models.controllers.network_operator import (BIG, BINARY_NAMES, L_MAX, NQ_MAX,
-                                                              NU_MAX, NX_MAX, UNARY_NAMES,
-                                                              MatrixError, compile_law, evaluate)
+from descent_fmus.models.controllers.network_operator import (BIG, BINARY_NAMES, BINARY_OPS,
+                                                              L_MAX, NQ_MAX, NU_MAX, NX_MAX,
+                                                              UNARY_NAMES, MatrixError,
+                                                              compile_law, evaluate)
 
 __all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError", "MAX_NODES",
            "MAX_LAW_FILE_BYTES"]
@@ -461,7 +462,8 @@ class NetworkOperator:
                 if j >= ns:
                     b = self.psi[j, j]
                     if b and terms[j]:
-                        expr[j] = terms[j][0] if len(terms[j]) == 1 else \
+                        one = len(terms[j]) == 1 and BINARY_OPS[b].first == "b"
+                        expr[j] = terms[j][0] if one else \
                             (BINARY_NAMES[b].join(terms[j]) if b in (1, 2) else
                              f"{BINARY_NAMES[b]}(" + ", ".join(terms[j]) + ")")
                         if len(terms[j]) > 1:

@@ -21,15 +21,17 @@ re-evaluates to the law).
 
 Named functions (text names; ``sgn(0) = 1``): ``inv`` 1/z (|z| > 1e-7), ``exp`` e^z capped at
 1e8, ``lnabs`` ln|z| (|z| > 1e-8), ``ssqrt`` sgn(z) sqrt|z|, ``heaviside`` [z >= 0], ``cbrt``
-real cube root, ``clip1`` clip to [-1, 1], ``max``/``min``/``norm``/``sabs``/``smax`` the binary
-operations 3, 4, 6-8; the table's ``expr`` of each is its definition (:func:`legend`).
+real cube root, ``clip1`` clip to [-1, 1], ``wrap`` the angle wrapped to (-pi, pi],
+``max``/``min``/``norm``/``sabs``/``smax``/``atan2``/``hypot`` the binary operations 3, 4, 6-10
+(``atan2(y, x)``: named rather than SymPy's, whose numbers fold into exact expressions of pi);
+the table's ``expr`` of each is its definition (:func:`legend`).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import lru_cache
 
-from descent_fmus.models.controllers.network_operator import (BINARY_OPS, UNARY_OPS,
+from descent_fmus.models.controllers.network_operator import (BINARY_OPS, UNARY_OPS, finite,
                                                               python_function)
 
 __all__ = ["Readable", "readable", "readable_cached", "sympy_functions", "legend"]
@@ -50,8 +52,10 @@ def sympy_functions() -> dict:
         def eval_(cls, *args):
             if all(a.is_Number and a.is_real for a in args):   # constant folding, exactly
                 return sympy.Float(fn(*(float(a) for a in args)))
-            if binary and op.unit == 0.0 and args[0] == 0:     # the unit element: chi(0, b) = b
-                return args[1]
+            if binary and op.unit == 0.0 and args[0] == 0:     # the unit: chi(0, b) = first(b)
+                return _first(op)(args[1])
+            if op.name in _EVEN and any(isinstance(a, sympy.Abs) for a in args):
+                return cls(*(a.args[0] if isinstance(a, sympy.Abs) else a for a in args))
             return None
 
         def _latex(self, printer, exp=None):
@@ -68,6 +72,22 @@ def sympy_functions() -> dict:
         if not op.sym:
             out[op.name] = make(op, True)
     return out
+
+
+#: named binary operations that depend on their operands' magnitudes only: hypot(|a|, b) =
+#: hypot(a, b) (a node's first arc gives hypot(0, b) = |b|)
+_EVEN = ("hypot",)
+
+
+@lru_cache(maxsize=None)
+def _first(op):
+    """The node's value after its first arc as a function of the arc's SymPy expression."""
+    import sympy
+    if op.first == "b":
+        return lambda e: e
+    b = sympy.Symbol("b")
+    f = sympy.sympify(op.first, locals={"b": b})
+    return lambda e: f.xreplace({b: e})
 
 
 def legend() -> dict:
@@ -217,9 +237,9 @@ def readable(law, digits: int = 6) -> Readable:
         b = int(psi[j, j])
         terms = [unary[int(psi[i, j])](z[i]) for i in range(j) if psi[i, j]] if b else []
         if not terms:
-            z[j] = sympy.Float(BINARY_OPS[b].unit) if b else sympy.Float(0.0)
+            z[j] = sympy.Float(finite(BINARY_OPS[b].unit)) if b else sympy.Float(0.0)
             continue
-        acc = terms[0]                      # chi(unit, r) = r for every binary operation
+        acc = _first(BINARY_OPS[b])(terms[0])   # chi(unit, r): r for all but hypot (|r|)
         for t in terms[1:]:
             acc = binary[b](acc, t)
         z[j] = acc

@@ -8,6 +8,8 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from descent_fmus.models.controllers.network_operator import (OperationNameError,
+                                                              operation_numbers)
 from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.variational_ga import PAPER_BINARY, PAPER_UNARY
 from descent_fmus.synthesis.problems.contract import DEFAULT_Q_BITS, Budget
@@ -67,15 +69,18 @@ def _q_bits(rd: Reader, ga: dict, law) -> tuple:
 
 
 def _operations(rd: Reader, ga: dict) -> dict:
+    """The operation sets of the variations: ``[ga] unary``/``binary``, lists of operation
+    names or numbers (``["id", "neg", "wrap"]``, ``[1, 2, "atan2"]``)."""
     ops = {}
-    for key, table, default in (("unary", 28, PAPER_UNARY), ("binary", 8, PAPER_BINARY)):
+    for key, default in (("unary", PAPER_UNARY), ("binary", PAPER_BINARY)):
         v = ga.get(key, list(default))
-        if not (isinstance(v, list) and v and len(v) <= 64 and all(
-                isinstance(x, int) and not isinstance(x, bool) and 1 <= x <= table
-                for x in v)):
-            raise rd.error(f"ga.{key}", f"must be a non-empty list of operation numbers "
-                                        f"1..{table}, got {v!r}")
-        ops[key] = tuple(v)
+        if not (isinstance(v, list) and v and len(v) <= 64):
+            raise rd.error(f"ga.{key}", f"must be a non-empty list of at most 64 operation "
+                                        f"names or numbers, got {v!r}")
+        try:
+            ops[key] = operation_numbers(v, binary=key == "binary")
+        except OperationNameError as exc:
+            raise rd.error(f"ga.{key}", str(exc)) from None
     return ops
 
 

@@ -77,7 +77,7 @@ baselines). The format, key by key::
     q_range = [-16.0, 16.0]               # range of the parameters' Gray code (default +-1024)
     q_bits = [4, 12]                      # its integer and fraction bits (default 11 + 31)
     # basis_rule = "target"  elite_trim = 4  p_mutation = 0.7  alpha = 0.4  ksearch = 4
-    # unary = [1, 3, 4, 5, 8, 9, 10, 14, 15]   binary = [1, 2]   (operation numbers)
+    # unary = [1, 3, 4, 5, 8, 9, 10, 14, 15]   binary = [1, 2, "atan2"]   (numbers or names)
 
     [refine]                              # optional: CMA-ES on promising laws' parameters
     basis = 400                           # evaluations on the basic solution first

@@ -19,14 +19,16 @@ import ast
 import re
 
 from descent_fmus.models.controllers.network_operator import (BINARY_OPS, CONSTANTS, FUNCTIONS,
-                                                              HELPERS, UNARY_OPS, MatrixError)
+                                                              HELPERS, UNARY_OPS, MatrixError,
+                                                              finite)
 
 __all__ = ["render", "operations_c", "law_c", "c_double", "c_identifier", "OperationError",
            "interpreter_operations_h"]
 
 #: C names of the language's functions (the helpers are the static ``no_<name>`` functions).
 C_FUNCTIONS = {"abs": "fabs", "max": "no_max", "sqrt": "sqrt", "exp": "exp", "log": "log",
-               "tanh": "tanh", "cos": "cos", "sin": "sin", "atan": "atan", "cbrt": "cbrt"}
+               "tanh": "tanh", "cos": "cos", "sin": "sin", "atan": "atan", "cbrt": "cbrt",
+               "atan2": "atan2", "remainder": "remainder"}
 _C_OPS = {ast.Add: "+", ast.Sub: "-", ast.Mult: "*", ast.Div: "/", ast.Gt: ">", ast.GtE: ">=",
           ast.Lt: "<", ast.LtE: "<=", ast.Eq: "==", ast.NotEq: "!="}
 
@@ -166,7 +168,7 @@ def interpreter_operations_h() -> str:
     arc, ``finite(chi(a, rho(z)))``, dispatched by one ``switch`` on the pair into which the
     compiler inlines both operations (measured: 1.5x faster than a switch per operation)."""
     nu, nb = len(UNARY_OPS) - 1, len(BINARY_OPS) - 1
-    units = ", ".join(["0.0"] + [c_double(BINARY_OPS[k].unit) for k in range(1, nb + 1)])
+    units = ", ".join(["0.0"] + [_c_unit(BINARY_OPS[k].unit) for k in range(1, nb + 1)])
     cases = "".join(f"    case NO_ARC_CODE({r}, {c}): return no_finite(chi{c}(a, rho{r}(z)));\n"
                     for r in range(1, nu + 1) for c in range(1, nb + 1))
     return ("/* no_operations.h -- the network operator's operation table rendered to C (generated "
@@ -184,6 +186,16 @@ def interpreter_operations_h() -> str:
             "#define NO_ARC_CODE(rho, chi) ((rho) * (NO_N_BINARY + 1) + (chi))\n"
             "static inline double no_arc(int code, double a, double z)\n{\n    switch (code) {\n"
             + cases + "    default: return 0.0;\n    }\n}\n\n#endif\n")
+
+
+def _sets_first(b: int) -> bool:
+    """The node's first arc sets it (atan2, whose unit is NaN: chi(NaN, b) = b)."""
+    return BINARY_OPS[b].unit != BINARY_OPS[b].unit
+
+
+def _c_unit(v: float) -> str:
+    """C of a unit element: ``NAN`` (C99) for atan2's "no value yet"."""
+    return "NAN" if v != v else c_double(v)
 
 
 def _reachable(psi, ns: int, outputs) -> set:
@@ -248,12 +260,18 @@ def _straight_line(law, psi, need: set) -> list:
         b = psi[j][j]
         arcs = [i for i in range(j) if psi[i][j]] if b else []
         if not arcs:
-            unit = BINARY_OPS[b].unit if b else 0.0
+            unit = finite(BINARY_OPS[b].unit) if b else 0.0
             body.append(f"    const double z{j + 1} = {c_double(unit)};  /* node {j + 1}: "
                         f"no arc */")
             continue
-        body.append(f"    double z{j + 1} = {c_double(BINARY_OPS[b].unit)};  /* node {j + 1}: "
-                    f"{BINARY_OPS[b].name} */")
+        if _sets_first(b):                                # atan2: the first arc sets the node
+            i = arcs.pop(0)                               # (chi(NaN, b) = b), no NaN in law.c
+            body.append(f"    double z{j + 1} = no_finite(rho{psi[i][j]}(z{i + 1}));  /* node "
+                        f"{j + 1}: {BINARY_OPS[b].name}; {UNARY_OPS[psi[i][j]].name} on "
+                        f"{i + 1}->{j + 1} */")
+        else:
+            body.append(f"    double z{j + 1} = {c_double(BINARY_OPS[b].unit)};  /* node "
+                        f"{j + 1}: {BINARY_OPS[b].name} */")
         for i in arcs:
             body.append(f"    z{j + 1} = no_finite(chi{b}(z{j + 1}, rho{psi[i][j]}(z{i + 1})));"
                         f"  /* {UNARY_OPS[psi[i][j]].name} on {i + 1}->{j + 1} */")
@@ -296,7 +314,9 @@ def _source_text(law, psi, need: set, comment: str, header: str, p: str, P: str)
     nx, nq = law.nx, len(law.q)
     ns = nx + nq
     unary = {psi[i][j] for j in need if j >= ns and psi[j][j] for i in range(j) if psi[i][j]}
-    binary = {psi[j][j] for j in need if j >= ns and psi[j][j]}
+    # the binary operations of nodes that fold an arc (atan2's first arc only sets its node)
+    binary = {psi[j][j] for j in need if j >= ns and psi[j][j]
+              and sum(1 for i in range(j) if psi[i][j]) > _sets_first(psi[j][j])}
 
     def arr(vals):
         return "{" + ", ".join(c_double(v) for v in vals) + "}" if vals else "{0.0}"

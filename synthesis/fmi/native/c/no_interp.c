@@ -59,15 +59,18 @@ const char *no_compile(NOProgram *p, const int *psi, int nx, int nq, const int *
     next.ns = ns;
     next.nu = nu;
     next.n_arcs = 0;
+    /* a node starts at finite(unit) (atan2: 0), the unit itself once an arc reaches it
+       (atan2: NaN, which its first arc replaces) */
     for (j = 0; j < NO_L_MAX; j++) {
         const int b = psi[PSI_AT(j, j)];
-        next.init[j] = (j >= ns && b) ? NO_UNIT[b] : 0.0;
+        next.init[j] = (j >= ns && b) ? no_finite(NO_UNIT[b]) : 0.0;
     }
     for (i = 0; i < NO_L_MAX; i++)
         for (j = i + 1; j < NO_L_MAX; j++) {
             const int r = psi[PSI_AT(i, j)], b = psi[PSI_AT(j, j)];
             if (r && b) {
                 NOArc *a = &next.arcs[next.n_arcs++];
+                next.init[j] = NO_UNIT[b];
                 a->i = (unsigned char)i;
                 a->j = (unsigned char)j;
                 a->code = (short)NO_ARC_CODE(r, b);
