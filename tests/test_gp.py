@@ -9,6 +9,7 @@ resumed one; a second run of the same seed.
 from __future__ import annotations
 
 import json
+import math
 import random
 
 import numpy as np
@@ -80,6 +81,11 @@ def test_compilation_shares_nodes_and_keeps_the_order_of_arcs():
     # add(mul(x1, x2), x2): x2 (node 2) precedes the product (node 3) -> copied: 5 nodes
     law = compile_trees([_tree("add(mul(x1, x2), x2)", pset)], pset, t)
     assert law.size == 5 and law.raw([2.0, 3.0]) == [9.0]
+    # a binary operation that does not commute: atan2(x1 x2, x1) -- x1 precedes the product, so
+    # it is copied after it and the arcs enter in the tree's order (oracle: math.atan2)
+    geo = primitive_set(2, [1], [2, 9], 1.0)
+    law = compile_trees([_tree("atan2(mul(x1, x2), x1)", geo)], geo, t)
+    assert law.size == 5 and law.raw([-0.5, 3.0]) == [math.atan2(-1.5, -0.5)]
     # sin(cos(x1)) at the root: cos an arc into a node of its own, sin an arc into the output
     law = compile_trees([_tree("sin(cos(x1))", pset)], pset, t)
     assert law.size == 4 and law.raw([0.5, 0.0]) == pytest.approx([np.sin(np.cos(0.5))],
