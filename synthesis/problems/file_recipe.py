@@ -1,6 +1,7 @@
 """Reading a problem file's recipe: the budget, the variational GA and its Gray code, the CMA-ES
 refinement and target, the fixed-structure baselines, the GP baseline (the ``[budget]``,
-``[ga]``, ``[refine]``, ``[target]``, ``[baselines]`` and ``[gp]`` tables of :mod:`synthesis.problems.files`)."""
+``[ga]``, ``[refine]``, ``[target]``, ``[baselines]`` and ``[gp]`` tables of
+:mod:`synthesis.problems.files`)."""
 from __future__ import annotations
 
 import math
