@@ -106,7 +106,7 @@ def primitive_set(nx: int, unary, binary, const_range: float) -> gp.PrimitiveSet
     return pset
 
 
-# -- tree <-> JSON ---------------------------------------------------------------------------------
+# -- tree <-> JSON --------------------------------------------------------------------------------
 def tree_to_tokens(tree) -> list:
     """A tree as JSON-able prefix tokens: names of primitives and inputs, constants as numbers."""
     return [float(n.value) if _is_constant(n) else (n.value if n.arity == 0 else n.name)
@@ -134,7 +134,7 @@ def tree_value(tree, pset, x) -> float:
     return finite(gp.compile(tree, pset)(*x))
 
 
-# -- tree -> network operator ----------------------------------------------------------------------
+# -- tree -> network operator ---------------------------------------------------------------------
 class _Compiler:
     """Allocates the nodes of one law for a list of trees (see the module docstring)."""
 
