@@ -46,6 +46,8 @@ NETWORK_OPERATOR = "network-operator"
 
 # -- running ------------------------------------------------------------------------------------
 def methods_of(problem) -> list:
+    """The network operator first, then every registered method of the problem (the
+    ``cma-<structure>`` baselines and the GP baseline ``gp``), all at the same flight budget."""
     from descent_fmus.synthesis.methods.registry import method_names
     names = method_names(problem)
     return [NETWORK_OPERATOR] + [m for m in names if m != NETWORK_OPERATOR]

@@ -54,7 +54,8 @@ def _add_setting_options(p) -> None:
     from descent_fmus.synthesis.problems.contract import SETTING_GROUPS
     titles = {"budget": "budget (default: the problem's own)",
               "ga": "variational GA (default: the problem's own)",
-              "refine": "CMA-ES refinement inside the GA (default: the problem's own)"}
+              "refine": "CMA-ES refinement inside the GA (default: the problem's own)",
+              "gp": "genetic-programming baseline, --method gp (default: the problem's own)"}
     for attr, cls, prefix in SETTING_GROUPS:
         g = p.add_argument_group(titles[attr])
         for info in settings_of(cls):
@@ -75,9 +76,10 @@ def add_synthesize_command(sub) -> None:
                    help="a problem file for any FMI 2.0 co-simulation plant FMU")
     _add_setting_options(p)
     p.add_argument("--method", default="network-operator",
-                   help="network-operator (default: the variational GA) or cma-<structure>: "
+                   help="network-operator (default: the variational GA), cma-<structure>: "
                         "CMA-ES over the parameters of one of the problem's fixed structures "
-                        "(descent-fmus problems lists them), same evaluator")
+                        "(descent-fmus problems lists them), or gp: genetic programming; same "
+                        "evaluator")
     p.add_argument("--option", action="append", default=[], metavar="NAME=VALUE",
                    help="a variant the problem offers (descent-fmus problems lists them), e.g. "
                         "statistic=median for the sample-set problems")

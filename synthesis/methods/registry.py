@@ -3,7 +3,8 @@
 Built in: ``network-operator`` (the variational GA with CMA-ES refinement,
 :class:`~synthesis.methods.variational_ga.VariationalGA`) and the family ``cma-<structure>``
 (CMA-ES over the parameters of one of the problem's fixed structures,
-:class:`~synthesis.methods.policy_search.PolicySearch`).  Adding a method is one class (a
+:class:`~synthesis.methods.policy_search.PolicySearch`) and ``gp`` (a genetic-programming
+baseline, :class:`~synthesis.methods.gp.GeneticProgramming`).  Adding a method is one class (a
 :class:`~synthesis.methods.base.Method`) and one :func:`register` call.
 
 A method is built from a problem (read by duck typing: its basic law, recipe, target and
@@ -19,9 +20,10 @@ import numpy as np
 from descent_fmus.synthesis.methods.base import Method
 
 __all__ = ["MethodEntry", "register", "unregister", "method_names", "make_method",
-           "UnknownMethodError", "NETWORK_OPERATOR", "baseline_structures", "cma_target"]
+           "UnknownMethodError", "NETWORK_OPERATOR", "GP", "baseline_structures", "cma_target"]
 
 NETWORK_OPERATOR = "network-operator"
+GP = "gp"
 
 
 class UnknownMethodError(ValueError):
@@ -135,9 +137,19 @@ def _policy_search(problem, variant) -> Method:
                         seed=problem.budget.seed)
 
 
+def _genetic_programming(problem, variant=None) -> Method:
+    from descent_fmus.synthesis.methods.gp import GeneticProgramming
+    return GeneticProgramming(problem.basic(), cma_target(problem), problem.gp, problem.unary,
+                              problem.binary, seed=problem.budget.seed,
+                              generations=problem.budget.generations)
+
+
 register(MethodEntry(NETWORK_OPERATOR, _network_operator,
                      summary="the variational GA of the network operator (structure and "
                              "parameters), with CMA-ES refinement of promising laws"))
 register(MethodEntry("cma-", _policy_search, variants=lambda p: list(baseline_structures(p)),
                      needs_flights=True,
                      summary="CMA-ES over the parameters of one fixed law structure"))
+register(MethodEntry(GP, _genetic_programming,
+                     summary="genetic programming (DEAP): one tree per output over the "
+                             "problem's operations, compiled into network-operator laws"))

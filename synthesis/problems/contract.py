@@ -31,6 +31,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, Wiring
+from descent_fmus.synthesis.methods.gp_config import GPConfig
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.refinement import RefineConfig
@@ -80,7 +81,8 @@ class Budget:
 #: The settings of a problem's recipe: (table / attribute, dataclass, command-line prefix).
 #: The CLI options of ``synthesize`` and the tables of problem files are derived from it.
 SETTING_GROUPS = (("budget", Budget, ""), ("ga", GAConfig, ""), ("refine", RefineConfig,
-                                                                  "refine_"))
+                                                                  "refine_"),
+                  ("gp", GPConfig, "gp_"))
 
 
 @dataclass(frozen=True)
@@ -198,8 +200,9 @@ class SynthesisProblem:
     basic_law : NetworkOperator or callable
         The search's first basic solution, or a function returning it (read when first
         needed, e.g. from a law file, so that building the registry reads no file).
-    budget, ga, refine : Budget, GAConfig, RefineConfig
-        The recipe of a default run (``synthesize`` overrides single fields: :meth:`tuned`).
+    budget, ga, refine, gp : Budget, GAConfig, RefineConfig, GPConfig
+        The recipe of a default run (``gp``: the genetic-programming baseline's; ``synthesize``
+        overrides single fields: :meth:`tuned`).
     constraints : tuple of Constraint
     target : Target or None
         The single objective of CMA-ES (refinement inside the GA, fixed-structure baselines),
@@ -245,6 +248,7 @@ class SynthesisProblem:
     budget: Budget = Budget()
     ga: GAConfig = GAConfig()
     refine: RefineConfig = RefineConfig()
+    gp: GPConfig = GPConfig()
     constraints: tuple = ()
     target: Target | None = None
     baselines: Callable | None = None

@@ -1,6 +1,7 @@
 """Reading a problem file's recipe: the budget, the variational GA and its Gray code, the CMA-ES
-refinement and target, the fixed-structure baselines (the ``[budget]``, ``[ga]``, ``[refine]``,
-``[target]`` and ``[baselines]`` tables of :mod:`synthesis.problems.files`)."""
+refinement and target, the fixed-structure baselines, the GP baseline (the ``[budget]``,
+``[ga]``, ``[refine]``, ``[target]``, ``[baselines]`` and ``[gp]`` tables of
+:mod:`synthesis.problems.files`)."""
 from __future__ import annotations
 
 import math
@@ -25,7 +26,9 @@ _BASELINE_KEYS = {"kind", "degree", "hidden", "file", "scale", "offset", "seed",
 
 
 def read_recipe(rd: Reader, data, law) -> tuple:
-    """``({budget, ga, refine}, q_bits, operations)`` of the [budget], [ga], [refine] tables."""
+    """``({budget, ga, refine, gp}, q_bits, operations)`` of the [budget], [ga], [refine] and
+    [gp] tables."""
+    from descent_fmus.synthesis.methods.gp_config import GPConfig
     from descent_fmus.synthesis.methods.refinement import RefineConfig
     from descent_fmus.synthesis.methods.variational_ga import GAConfig
     ga = rd.table(data, "ga", required=False)
@@ -36,7 +39,8 @@ def read_recipe(rd: Reader, data, law) -> tuple:
     recipe = {"budget": read_settings(rd, budget_table, "budget", Budget()),
               "ga": read_settings(rd, ga, "ga", GAConfig(), GA_EXTRA),
               "refine": read_settings(rd, rd.table(data, "refine", required=False), "refine",
-                                      RefineConfig())}
+                                      RefineConfig()),
+              "gp": read_settings(rd, rd.table(data, "gp", required=False), "gp", GPConfig())}
     return recipe, _q_bits(rd, ga, law), _operations(rd, ga)
 
 

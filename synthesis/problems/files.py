@@ -5,7 +5,7 @@ package knows nothing about, with the same recipe as a registered problem: the f
 plant FMU (any tool's), which of its outputs feed the law and which of its inputs the law
 drives, the sampling period, when a flight ends, the initial states, the objectives and
 constraints, the basic law, and the recipe (budget, GA, CMA-ES refinement and its target, the
-fixed-structure baselines).  The format, key by key::
+baselines). The format, key by key::
 
     [problem]
     name = "hopper"                      # letters, digits, - and _
@@ -97,10 +97,11 @@ fixed-structure baselines).  The format, key by key::
     cubic = { kind = "polynomial", degree = 3 }
     # mine = { kind = "file", file = "law.json" }
     # any kind may give its own inputs' scale = [...] and offset = [...]
+    [gp]                # optional: the GP baseline (--method gp): population = 200, tournament = 3
 
-For compatibility with older files, ``generations`` and ``seed`` are also read from ``[ga]``.
-Every error names the file, the key and the problem (:class:`ProblemFileError`); nothing is
-written before the file has been checked against the plant FMU's model description.
+``generations`` and ``seed`` are also read from ``[ga]`` (older files).  Every error names the
+file, the key and the problem (:class:`ProblemFileError`); nothing is written before the file
+has been checked against the plant FMU's model description.
 """
 from __future__ import annotations
 
@@ -131,7 +132,7 @@ except ModuleNotFoundError:              # Python 3.10
 __all__ = ["ProblemFileError", "load_problem_file", "FileObjectives"]
 
 _TOP = {"problem", "plant", "controller", "simulation", "initial_states", "objectives",
-        "constraints", "basic_law", "budget", "ga", "refine", "target", "baselines"}
+        "constraints", "basic_law", "budget", "ga", "refine", "target", "baselines", "gp"}
 _KEYS = {
     "problem": {"name", "description"},
     "plant": {"fmu", "parameters"},

@@ -48,12 +48,13 @@ def run_spec(problem, method: str) -> dict:
             "seed": problem.budget.seed, "budget": asdict(problem.budget),
             "ga": asdict(problem.ga), "refine": asdict(problem.refine),
             "operations": [list(problem.unary), list(problem.binary)],
-            "q_bits": list(problem.q_bits), "input_scaling": problem.input_scaling}
+            "q_bits": list(problem.q_bits), "input_scaling": problem.input_scaling,
+            **({"gp": asdict(problem.gp)} if method == "gp" else {})}
 
 
 # the fields a resumed run may change: the budget's (a longer run of the same search)
 _SAME = ("problem", "source", "method", "seed", "ga", "refine", "operations", "q_bits",
-         "input_scaling")
+         "input_scaling", "gp")
 
 
 class RunFolder:
