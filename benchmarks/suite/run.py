@@ -363,7 +363,8 @@ def plot(table: dict, path: Path, title: str = "") -> None:
     names = list(table)
     cols = min(3, len(names))
     rows = math.ceil(len(names) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.0 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(max(5.2 * cols, 7.0), 4.0 * rows),
+                             squeeze=False)
     for ax, name in zip(axes.ravel(), names):
         t = table[name]
         ref = t["reference"]
@@ -399,9 +400,9 @@ def plot(table: dict, path: Path, title: str = "") -> None:
         ax.legend(fontsize=7)
     for ax in axes.ravel()[len(names):]:
         ax.axis("off")
-    fig.suptitle("benchmark suite" + (f", {title}" if title else "") + ": the best value of "
-                 "each problem's target objective against flights, every method and seed",
-                 fontsize=10)
+    fig.suptitle("benchmark suite" + (f": {title}" if title else "") + "\nthe best value "
+                 "of the target objective against flights, every method and seed",
+                 fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
