@@ -96,8 +96,8 @@ SPECS = {s.name: s for s in (
     Spec("mintime-osc", 4000, ("Oscillator",), "mintime-osc.toml",
          goal="mean time <= 1.05 x the reference, every start reached", goal_ratio=1.05,
          plot="excess",
-         reference_label="least time of any program held over the step (LP per step count), "
-                         "mean"),
+         reference_label="least time of any program held over the step (reachability per "
+                         "step count), mean"),
     Spec("parking-box", 8000, ("Unicycle",), "parking-box.toml",
          goal="mean park error <= 0.05", goal_value=0.05, ratio=False,
          reference_label="Aicardi et al. (1995) polar law, turn rate clipped to +-1"),
