@@ -9,7 +9,8 @@
   exact discretisation; a sampled law near the optimal one reaches every start within 1.3 % of
   the closed form (the reference is fair to sampled laws);
 * mintime-osc: the LP against the closed form of the oscillator from rest at (2k, 0) (k half
-  turns, k pi); the separating-axis test against the LP; the reference programs replayed
+  turns, k pi); the separating-axis test against the LP; the basic law's value through the
+  evaluator against an independent flight, never below the reference; the programs replayed
   through the FMU arrive in the box exactly at the reference's step; a receding-horizon feedback
   law attains the reference;
 * parking-box: the polar law with its box gains parks all 12 starts through the FMU with the
@@ -172,6 +173,30 @@ def test_separating_axis_test_agrees_with_the_lp():
             assert sat == (M.reach_program(Ad, Bd, x0, m, 0.05 * (1 + 1e-9)) is not None)
             answers.add(sat)
     assert answers == {True, False}
+
+
+def test_oscillator_problem_value_of_the_basic_law(built, fmu_dir):
+    p = load("mintime-osc", fmu_dir)
+    ref = M.mintime_osc_reference(p)
+    (time, worst), cv = R.objective_of(p, p.basic(), fmu_dir)
+    # oracle: the law u = -x2 flown on the exact zero-order-hold matrices, the flight ending at
+    # the first sample in the box
+    Ad, Bd = M.discretise("oscillator", p.wiring.step)
+    g = p.basic().q[:2]
+    vals = []
+    for s in p.initial_states:
+        x = np.array([s["x10"], s["x20"]])
+        k = 0
+        while np.max(np.abs(x)) > ref["eps"]:
+            x = Ad @ x + Bd * min(max(g[0] * x[0] + g[1] * x[1], -1.0), 1.0)
+            k += 1
+        vals.append(k * p.wiring.step)
+    assert max(vals) < p.wiring.stop_time                  # every start reached
+    assert time == pytest.approx(np.mean(vals), rel=1e-9)
+    assert worst == pytest.approx(max(vals), rel=1e-9)
+    # no law beats the reference at any start; the damping law is 2 x slower
+    assert np.all(np.array(vals) >= [r["time"] - 1e-9 for r in ref["per_start"]])
+    assert time > 2.0 * ref["mean"]
 
 
 def test_oscillator_reference_programs_replay_through_the_fmu(built, fmu_dir):
