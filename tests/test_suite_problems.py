@@ -47,6 +47,12 @@ def load(name, fmu_dir):
     return suite.load(name, fmu_dir, build=False)
 
 
+@pytest.mark.parametrize("name", ["DoubleIntegrator", "Oscillator"])
+def test_new_plant_fmus_pass_fmpy_validate(built, name):
+    from fmpy.validation import validate_fmu
+    assert validate_fmu(str(built[name])) == []
+
+
 # -- mintime-di --------------------------------------------------------------------------------
 #: starts above and below the switching curve, on it, and at rest
 DI_STARTS = [(1.0, 0.5), (-1.2, 0.3), (0.4, -1.0), (0.5, -1.0), (-2.0, 0.0)]
