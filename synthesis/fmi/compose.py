@@ -27,8 +27,8 @@ from fmpy import read_model_description
 from descent_fmus.synthesis.fmi.closed_loop import Wiring
 from descent_fmus.synthesis.paths import require_fmu
 
-__all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp",
-           "add_units", "add_status_wrapper", "refine_container"]
+__all__ = ["build_slave", "build_slave_file", "model_closure", "with_defaults", "closed_loop_fmu",
+           "write_ssp", "add_units", "add_status_wrapper", "refine_container"]
 
 #: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
 MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -76,9 +76,12 @@ def entry_script(module: str, cls: str) -> str:
     pythonfmu 0.7 re-executes the entry module's code in the module's namespace every time the
     FMU is instantiated and then releases one reference to that namespace it never took
     (``models.pythonfmu_compat``); the last line takes that reference on every execution.
+    ``module``: a module of descent_fmus.models, or (``"/name"``) a top-level module of the FMU's
+    resources (a user's plant).
     """
-    return (f'"""pythonfmu entry point of the {cls} FMU (written by build_fmus.py)."""\n'
-            f"from descent_fmus.models.{module} import {cls}  # noqa: F401\n"
+    source = module[1:] if module.startswith("/") else f"descent_fmus.models.{module}"
+    return (f'"""pythonfmu entry point of the {cls} FMU (written by descent-fmus)."""\n'
+            f"from {source} import {cls}  # noqa: F401\n"
             f"from descent_fmus.models.pythonfmu_compat import balance_namespace\n"
             f"balance_namespace(globals())\n")
 
@@ -92,20 +95,43 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
     finds its modules whichever was loaded first), and an installed descent-fmus keeps its own
     regular packages.
     """
+    module, cls = fmu_class.split(":")
+    return _build(module, cls, model_closure(module), dest_dir)
+
+
+def build_slave_file(source: Path, cls: str, dest_dir: Path) -> Path:
+    """Build the pythonfmu FMU of the class ``cls`` of a plant module outside the package (a
+    user's plant, ``descent-fmus build-plant``): the module is the top-level module
+    ``<cls>_model`` of the FMU's resources, beside the ``descent_fmus/models`` modules it
+    imports (as :func:`build_slave`)."""
+    source = Path(source)
+    needed = set()
+    for m in _model_imports(source):
+        needed.update(model_closure(m))
+    # the module is named after the class in the FMU (two plant files of the same name, or two
+    # builds of one file, load side by side in one process, as FMUs of other identifiers do)
+    return _build(f"/{cls}_model", cls, sorted(needed), dest_dir,
+                  extra=((source, f"{cls}_model.py"),))
+
+
+def _build(module: str, cls: str, modules, dest_dir: Path, extra=()) -> Path:
     from pythonfmu import FmuBuilder
 
-    module, cls = fmu_class.split(":")
     with tempfile.TemporaryDirectory(prefix="descent_fmus_") as tmp:
         tmp = Path(tmp)
         pkg = tmp / "descent_fmus"
-        for m in model_closure(module):
+        for m in modules:
             rel = Path(*m.split(".")).with_suffix(".py")
             (pkg / "models" / rel).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy(MODELS / rel, pkg / "models" / rel)
         script = tmp / "entry" / f"{cls}.py"
         script.parent.mkdir()
         script.write_text(entry_script(module, cls))
-        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
+        files = [pkg]
+        for f, name in extra:               # beside the entry: importable when pythonfmu builds
+            shutil.copy(f, script.parent / name)
+            files.append(script.parent / name)
+        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=files))
     return add_status_wrapper(add_units(fmu))
 
 

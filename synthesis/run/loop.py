@@ -279,6 +279,11 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
                           fail_loudly=True)
     announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
              f"{'worker' if evaluator.workers == 1 else 'workers'})")
+    if evaluator.path in ("master", "container") and problem.runner.native is not False:
+        from descent_fmus.synthesis.fmi.native_loop import missing_twins
+        note = missing_twins(problem.wiring, *evaluator.fmus)
+        if note:
+            announce(note)
     if st:
         evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)))
     checkpoints = _Checkpoints(folder, evaluator, curve)
