@@ -73,7 +73,7 @@ class HopperIntegrator(Integrator):
 
 
 class Hopper(SlaveBase):
-    """The hopper as an FMU: input ``throttle``; outputs h, v, m, ``status`` and ``t_end``."""
+    """The hopper as an FMU: input ``throttle``; outputs h, v, m, fuel, ``status``, ``t_end``."""
 
     author = "a descent-fmus user"
     description = "Vertical hopper near the lunar surface (tutorial plant)"
@@ -88,6 +88,7 @@ class Hopper(SlaveBase):
         self.output("h", "altitude [m]", getter=lambda: ig().x[0])
         self.output("v", "vertical speed, up [m/s]", getter=lambda: ig().x[1])
         self.output("m", "mass [kg]", getter=lambda: ig().x[2])
+        self.output("fuel", "propellant used m0 - m [kg]", getter=lambda: ig().p.m0 - ig().x[2])
         self.status_outputs(lambda: ig().status, lambda: ig().t_end_output)
         self.prepare()
 

@@ -175,7 +175,10 @@ class Sym:
     def __floordiv__(self, o):
         raise TraceError("// of a traced value is not traced")
 
-    __rfloordiv__ = __mod__ = __rmod__ = __floordiv__
+    def __mod__(self, o):
+        raise TraceError("% of a traced value is not traced (math.fmod is)")
+
+    __rfloordiv__, __rmod__ = __floordiv__, __mod__
 
     # -- formatting inside messages (ParameterError): a placeholder the C code fills in --------
     def __format__(self, spec):
