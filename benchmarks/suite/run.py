@@ -19,8 +19,8 @@ Finished runs are reused; a run that stopped early (interrupted) is resumed.
     python benchmarks/suite/run.py --no-run --json                   # the table as JSON
 
 ``--workers N`` runs N syntheses at once (one process each, every synthesis in one process):
-the flights of the suite's pythonfmu plants are short, so separate runs use the cores better
-than a pool inside one run.  ``--flights N`` overrides every problem's budget (smoke tests).
+the flights of the suite's plants (native twins built by ``descent-fmus build-plant``) are
+short, so separate runs use the cores better than a pool inside one run.  ``--flights N`` overrides every problem's budget (smoke tests).
 Writes ``<out>/table.json`` and the figure ``docs/figures/suite.png`` (``--plot``).
 """
 from __future__ import annotations

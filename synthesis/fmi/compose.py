@@ -27,7 +27,7 @@ from fmpy import read_model_description
 from descent_fmus.synthesis.fmi.closed_loop import Wiring
 from descent_fmus.synthesis.paths import require_fmu
 
-__all__ = ["build_slave", "build_slave_file", "model_closure", "with_defaults", "closed_loop_fmu",
+__all__ = ["build_slave", "build_bundle", "model_imports", "model_closure", "with_defaults", "closed_loop_fmu",
            "write_ssp", "add_units", "add_status_wrapper", "refine_container"]
 
 #: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
@@ -37,7 +37,7 @@ if not (MODELS / "fmu_support.py").is_file():      # installed: the sibling pack
     MODELS = Path(_models.__file__).parent
 
 
-def _model_imports(path: Path) -> set:
+def model_imports(path: Path) -> set:
     """Modules of descent_fmus.models that ``path`` imports (names relative to the package)."""
     import ast
     out = set()
@@ -66,7 +66,7 @@ def model_closure(module: str) -> list[str]:
         if not path.is_file():
             raise FileNotFoundError(f"no module descent_fmus.models.{m} ({path})")
         seen.add(m)
-        todo.extend(_model_imports(path) - seen)
+        todo.extend(model_imports(path) - seen)
     return sorted(seen)
 
 
@@ -76,9 +76,7 @@ def entry_script(module: str, cls: str) -> str:
     pythonfmu 0.7 re-executes the entry module's code in the module's namespace every time the
     FMU is instantiated and then releases one reference to that namespace it never took
     (``models.pythonfmu_compat``); the last line takes that reference on every execution.
-    ``module``: a module of descent_fmus.models, or (``"/name"``) a top-level module of the FMU's
-    resources (a user's plant).
-    """
+    ``module``: of descent_fmus.models, or ``"/name"``: a top-level one (a user's plant)."""
     source = module[1:] if module.startswith("/") else f"descent_fmus.models.{module}"
     return (f'"""pythonfmu entry point of the {cls} FMU (written by descent-fmus)."""\n'
             f"from {source} import {cls}  # noqa: F401\n"
@@ -96,27 +94,13 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
     regular packages.
     """
     module, cls = fmu_class.split(":")
-    return _build(module, cls, model_closure(module), dest_dir)
+    return build_bundle(module, cls, model_closure(module), dest_dir)
 
 
-def build_slave_file(source: Path, cls: str, dest_dir: Path) -> Path:
-    """Build the pythonfmu FMU of the class ``cls`` of a plant module outside the package (a
-    user's plant, ``descent-fmus build-plant``): the module is the top-level module
-    ``<cls>_model`` of the FMU's resources, beside the ``descent_fmus/models`` modules it
-    imports (as :func:`build_slave`)."""
-    source = Path(source)
-    needed = set()
-    for m in _model_imports(source):
-        needed.update(model_closure(m))
-    # the module is named after the class in the FMU (two plant files of the same name, or two
-    # builds of one file, load side by side in one process, as FMUs of other identifiers do)
-    return _build(f"/{cls}_model", cls, sorted(needed), dest_dir,
-                  extra=((source, f"{cls}_model.py"),))
-
-
-def _build(module: str, cls: str, modules, dest_dir: Path, extra=()) -> Path:
+def build_bundle(module: str, cls: str, modules, dest_dir: Path, extra=()) -> Path:
+    """:func:`build_slave` of ``cls`` of ``module`` (:func:`entry_script`) with the models
+    ``modules`` and the ``extra`` files ``(path, name)`` beside the entry."""
     from pythonfmu import FmuBuilder
-
     with tempfile.TemporaryDirectory(prefix="descent_fmus_") as tmp:
         tmp = Path(tmp)
         pkg = tmp / "descent_fmus"
@@ -127,11 +111,10 @@ def _build(module: str, cls: str, modules, dest_dir: Path, extra=()) -> Path:
         script = tmp / "entry" / f"{cls}.py"
         script.parent.mkdir()
         script.write_text(entry_script(module, cls))
-        files = [pkg]
         for f, name in extra:               # beside the entry: importable when pythonfmu builds
             shutil.copy(f, script.parent / name)
-            files.append(script.parent / name)
-        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=files))
+        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg] + [
+            script.parent / name for _, name in extra]))
     return add_status_wrapper(add_units(fmu))
 
 

@@ -159,7 +159,8 @@ class Sym:
 
     # -- conversions: only what keeps the value a double ---------------------------------------
     def __float__(self):
-        raise TraceError("float() of a traced value outside a traced module")
+        raise TraceError("float() of a traced value outside a traced module (a math function "
+                         "imported by name, 'from math import sin'? write math.sin)")
 
     def __int__(self):
         if _STACK and _STACK[-1].hooks.get("dispatch"):

@@ -4,7 +4,7 @@
 style (a ``Params`` dataclass, the right-hand side as plain functions, an ``Integrator``
 subclass, the FMU class deriving :class:`models.fmu_support.SlaveBase`), and writes
 
-* ``DIR/<Identifier>.fmu`` -- the pythonfmu FMU (:func:`synthesis.fmi.compose.build_slave_file`:
+* ``DIR/<Identifier>.fmu`` -- the pythonfmu FMU (:func:`build_pythonfmu`:
   the module and the ``descent_fmus/models`` modules it imports in its resources);
 * ``DIR/native/<Identifier>.fmu`` -- the native twin, C generated from the same class by the
   tracer of the package's own plants (:mod:`.plant_phases`, :func:`.plant_fmu.build_plant_fmu`),
@@ -33,8 +33,8 @@ import time
 import traceback
 from pathlib import Path
 
-__all__ = ["PlantFileError", "load_plant_module", "plant_class", "build_plant", "check_twins",
-           "CHECK_STEPS"]
+__all__ = ["PlantFileError", "load_plant_module", "plant_class", "build_plant", "build_pythonfmu",
+           "check_twins", "CHECK_STEPS"]
 
 #: Communication steps of each check flight.
 CHECK_STEPS = 100
@@ -117,6 +117,19 @@ def _prefix(identifier: str) -> str:
                           "char", "if", "else", "return"} else f"{p}_plant"
 
 
+def build_pythonfmu(source: Path, cls: str, dest_dir: Path) -> Path:
+    """The pythonfmu FMU of the class ``cls`` of the plant file ``source``: the module is the
+    top-level module ``<cls>_model`` of the FMU's resources (two plant files of one name, or
+    two builds of one file, then load side by side in one process), beside the
+    ``descent_fmus/models`` modules it imports (as the package's own FMUs)."""
+    from descent_fmus.synthesis.fmi.compose import build_bundle, model_closure, model_imports
+    needed = set()
+    for m in model_imports(Path(source)):
+        needed.update(model_closure(m))
+    return build_bundle(f"/{cls}_model", cls, sorted(needed), dest_dir,
+                        extra=((source, f"{cls}_model.py"),))
+
+
 def _native_sources(cls, path: Path, dest: Path, compiler=None) -> Path:
     """Trace ``cls`` and compile its native FMU at ``dest``; a construct the tracer cannot
     follow is a PlantFileError naming the line."""
@@ -150,7 +163,6 @@ def build_plant(path, dest=None, check: bool = True, class_name: str | None = No
     PlantFileError
         The file, its class, or a construct the tracer cannot follow (nothing written).
     """
-    from descent_fmus.synthesis.fmi.compose import build_slave_file
     from descent_fmus.synthesis.fmi.native.build import find_compiler
     from descent_fmus.synthesis.fmi.native.plant_trace import TraceError, check_python
     from descent_fmus.synthesis.fmi.native_loop import NATIVE_DIR
@@ -177,7 +189,7 @@ def build_plant(path, dest=None, check: bool = True, class_name: str | None = No
         report["seconds"]["native"] = round(time.perf_counter() - t0, 2)
         t0 = time.perf_counter()
         dest.mkdir(parents=True, exist_ok=True)
-        py = build_slave_file(path, ident, dest)
+        py = build_pythonfmu(path, ident, dest)
         report["seconds"]["pythonfmu"] = round(time.perf_counter() - t0, 2)
         twin.unlink(missing_ok=True)          # never a twin of an older definition
         if built is None:
@@ -299,5 +311,8 @@ if __name__ == "__main__":          # the check's child process: PY NATIVE STEPS
     _py, _c, _n, _h = sys.argv[1:5]
     print(json.dumps(check_twins(_py, _c, int(_n), float(_h) or None), allow_nan=True),
           flush=True)
-    from descent_fmus.synthesis.cli.main import exit_without_teardown
-    exit_without_teardown(0)
+    sys.stderr.flush()
+    # no interpreter teardown after a pythonfmu FMU was loaded (synthesis.cli.main.entry: it
+    # was seen, rarely, to abort in glibc's heap checks)
+    import os
+    os._exit(0)
