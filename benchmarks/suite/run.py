@@ -215,7 +215,7 @@ def tabulate(names, seeds, out: Path, fmus=None) -> dict:
                     row["details"] = suite.law_details(name, problem, law, fmus)
             rows.append(row)
         ref_details = ""
-        if name in ("parking", "parking-polar"):
+        if name in suite.PARKING:
             d = ref["details"]
             ref_details = (f"parks every start: mean final distance {d['mean_distance']:.2g} m, "
                            f"heading error {d['mean_heading']:.2g} rad")

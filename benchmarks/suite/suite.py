@@ -15,10 +15,15 @@ from pathlib import Path
 from typing import Callable
 
 from descent_fmus.synthesis.systems.lunar_descent.problems import LUNAR_DESCENT_RECIPE
-from references import (BUILD, LUNAR_DESCENT_CMA_J1, SUITE, PlantFlyer, build_plants,
-                        lq_reference, parking_reference, stored)
+from references import (AICARDI_GAINS, AICARDI_GAINS_BOX, BUILD, LUNAR_DESCENT_CMA_J1, SUITE,
+                        PlantFlyer, build_plants, lq_reference, parking_reference, stored)
 
-__all__ = ["Spec", "SPECS", "load", "reference", "ORDER"]
+__all__ = ["Spec", "SPECS", "load", "reference", "ORDER", "PARKING", "MINTIME"]
+
+#: the parking problems (the polar law their reference, parked starts their details)
+PARKING = ("parking", "parking-polar", "parking-box")
+#: the minimum-time problems (a target set, its stop condition: reached starts their details)
+MINTIME = ("mintime-di", "mintime-osc")
 
 
 @dataclass(frozen=True)
@@ -80,6 +85,18 @@ SPECS = {s.name: s for s in (
     Spec("parking-polar", 3000, ("Unicycle",), "parking-polar.toml",
          goal="(a variant: the law is given the polar coordinates)", ratio=False,
          reference_label="Aicardi et al. (1995) polar law through the FMU"),
+    Spec("mintime-di", 4000, ("DoubleIntegrator",), "mintime-di.toml",
+         goal="mean time <= 1.05 x the closed-form optimum, every start reached",
+         goal_ratio=1.05, plot="excess",
+         reference_label="closed-form minimum time to the origin per start, mean"),
+    Spec("mintime-osc", 4000, ("Oscillator",), "mintime-osc.toml",
+         goal="mean time <= 1.05 x the reference, every start reached", goal_ratio=1.05,
+         plot="excess",
+         reference_label="least time of any program held over the step (LP per step count), "
+                         "mean"),
+    Spec("parking-box", 8000, ("Unicycle",), "parking-box.toml",
+         goal="mean park error <= 0.05", ratio=False,
+         reference_label="Aicardi et al. (1995) polar law, turn rate clipped to +-1"),
 )}
 
 #: the order of the table and of the figure's panels
@@ -116,9 +133,10 @@ def reference(name: str, problem=None, fmu_dir=None) -> dict:
         d = stored("cartpole")
         progs = [p["J"] for p in d["programs"]]
         out.update(value=sum(progs) / len(progs), details=d)
-    elif name in ("parking", "parking-polar"):
+    elif name in PARKING:
         problem = problem or load(name, fmu_dir)
-        d = parking_reference(problem, fmu_dir)
+        gains = AICARDI_GAINS_BOX if name == "parking-box" else AICARDI_GAINS
+        d = parking_reference(problem, fmu_dir, gains)
         out.update(value=d["park"], details=d)
     elif name == "reentry-second":
         d = stored("reentry-second")
@@ -127,6 +145,12 @@ def reference(name: str, problem=None, fmu_dir=None) -> dict:
         out["details"]["J1_zero_miss"] = d["zero_miss"]["J1"]
     elif name == "lunar-descent":
         out.update(value=LUNAR_DESCENT_CMA_J1)
+    elif name in MINTIME:
+        import mintime
+        problem = problem or load(name, fmu_dir)
+        d = (mintime.mintime_di_reference if name == "mintime-di"
+             else mintime.mintime_osc_reference)(problem)
+        out.update(value=d["mean"], details=d)
     return out
 
 
@@ -145,7 +169,7 @@ def law_details(name: str, problem, law, fmu_dir=None) -> str:
         return (f"saves {len(saved)}/{len(finals)} starts"
                 + ("" if len(saved) == len(finals) else ": theta0 = " + ", ".join(
                     f"{math.degrees(s['theta0']):+.0f}" for s in saved) + " deg"))
-    if name in ("parking", "parking-polar"):
+    if name in PARKING:
         from references import fly_law
         finals = fly_law(problem, law, fmu_dir)
         n = sum(f["rho"] < PARKED[0] and abs(f["theta"]) < PARKED[1] for f in finals)
@@ -153,6 +177,12 @@ def law_details(name: str, problem, law, fmu_dir=None) -> str:
         a = sum(abs(f["theta"]) for f in finals) / len(finals)
         return (f"parks {n}/{len(finals)} starts (within 5 cm, 3 deg); mean final distance "
                 f"{d:.3g} m, heading error {a:.3g} rad")
+    if name in MINTIME:
+        from references import fly_law
+        stop = problem.wiring.stop
+        finals = fly_law(problem, law, fmu_dir)
+        n = sum(stop.holds(f[stop.output]) for f in finals)
+        return f"reaches {n}/{len(finals)} starts"
     return ""
 
 
