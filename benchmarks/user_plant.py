@@ -4,7 +4,8 @@ the pythonfmu FMU of the same plant file.
 1. **laws/s in the evaluator**: the suite's unicycle (benchmarks/suite/plants/unicycle.py; the
    parking problem's law, reading x, y, theta) flown from 12 Latin-hypercube starts per law on 2
    worker processes, one batch of the GA's first laws, pythonfmu FMU vs native twin; the
-   objectives of the two batches must be bitwise equal.
+   objectives of the two batches must be bitwise equal.  The same for the tutorial's problem
+   (the hopper, 6 starts a law).
 2. **the tutorial end to end**: ``descent-fmus synthesize --problem hopper.toml`` with the
    file's own budget (docs/tutorials/own_plant.md, step 3), the plant's twin beside its FMU
    and without it; the wall time of the whole command and of its flights.
@@ -94,10 +95,9 @@ def tutorial(work: Path, fmus: Path, native: bool, generations=None) -> dict:
                 r["v_touchdown"] for r in s.get("pareto", [{"v_touchdown": math.nan}]))}
 
 
-def evaluator_rates(work: Path, fmus: Path, n: int) -> dict:
-    """Laws/s of the unicycle problem: ``n`` laws on pythonfmu, 20 n on the twin (the same
+def evaluator_rates(problem, fmus: Path, n: int) -> dict:
+    """Laws/s of ``problem`` on 2 workers: ``n`` laws on pythonfmu, 20 n on the twin (the same
     first n: their objectives compared bytewise)."""
-    problem = unicycle_problem(work, fmus)
     big = laws(problem, 20 * n)
     small = big[:n]
     r_py, path_py, F_py = rate(problem, small, fmus, False)
@@ -106,6 +106,15 @@ def evaluator_rates(work: Path, fmus: Path, n: int) -> dict:
             "pythonfmu_path": path_py, "native_laws_per_s": r_c, "native_path": path_c,
             "ratio": r_c / r_py,
             "objectives_bitwise_equal": F_py.tobytes() == F_c[:len(small)].tobytes()}
+
+
+def hopper_problem(work: Path, fmus: Path):
+    """The tutorial's problem, its plant built by build-plant beside its file."""
+    from descent_fmus.synthesis.problems.files import load_problem_file
+    d = work / "hopper"
+    build(TUTORIAL / "hopper.py", d)
+    shutil.copy(TUTORIAL / "hopper.toml", d / "hopper.toml")
+    return load_problem_file(d / "hopper.toml", fmus)
 
 
 def _built_hopper(work: Path) -> Path:
@@ -135,7 +144,9 @@ def main(argv=None):
     with tempfile.TemporaryDirectory(prefix="user_plant_") as tmp:
         work = Path(tmp)
         if not args.skip_evaluator:
-            out["unicycle"] = evaluator_rates(work, args.fmus, args.n)
+            out["unicycle"] = evaluator_rates(unicycle_problem(work, args.fmus), args.fmus,
+                                              args.n)
+            out["hopper"] = evaluator_rates(hopper_problem(work, args.fmus), args.fmus, args.n)
         if not args.skip_tutorial:
             nat = tutorial(work, args.fmus, True, args.generations)
             py = tutorial(work, args.fmus, False, args.generations)
@@ -144,9 +155,11 @@ def main(argv=None):
     if args.json:
         print(json.dumps(out, indent=1))
         return
-    u = out.get("unicycle")
-    if u:
-        print(f"unicycle (parking law, {u['starts']} starts a law, {u['workers']} workers): "
+    for name, label in (("unicycle", "unicycle (parking law"), ("hopper", "hopper (tutorial")):
+        u = out.get(name)
+        if not u:
+            continue
+        print(f"{label}, {u['starts']} starts a law, {u['workers']} workers): "
               f"pythonfmu {u['pythonfmu_laws_per_s']:.1f} laws/s ({u['pythonfmu_path']}), "
               f"native {u['native_laws_per_s']:.0f} laws/s ({u['native_path']}): "
               f"{u['ratio']:.0f}x (target 30x); objectives bitwise equal: "
