@@ -31,7 +31,7 @@ __all__ = ["time_to_go", "plant_matrices", "discretise", "reach_program", "box_r
 
 
 def _plant_module(name: str):
-    """The pythonfmu source ``plants/<name>.py`` as a module (its closed forms, one definition)."""
+    """The plant file ``plants/<name>.py`` as a module (its closed forms, one definition)."""
     spec = importlib.util.spec_from_file_location(f"suite_plant_{name}",
                                                   SUITE / "plants" / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)
@@ -109,20 +109,21 @@ def least_steps(Ad, Bd, x0, eps: float, n_max: int, u_max: float = 1.0) -> tuple
     return None, None
 
 
-def min_time_lp(kind: str, x0, h: float, n_max: int = 4000) -> float:
+def min_time_lp(kind: str, x0, h: float, u_max: float = 1.0, n_max: int = 4000) -> float:
     """The least N h with a program held over h that brings ``kind`` from x0 to the origin
     exactly (bisection: the origin is an equilibrium at u = 0, so reaching it is monotone in N).
     A sampled program is an admissible continuous one: T* <= N h, and N h -> T* as h -> 0."""
     Ad, Bd = discretise(kind, h)
     lo, hi = 0, 1
-    while reach_program(Ad, Bd, x0, hi) is None:
+    while reach_program(Ad, Bd, x0, hi, 0.0, u_max) is None:
         lo, hi = hi, 2 * hi
         if hi > n_max:
             raise ValueError(f"{kind}: the origin is not reached from {list(x0)} in {n_max} "
                              f"steps of {h}")
     while hi - lo > 1:                              # reach(lo) false, reach(hi) true
         mid = (lo + hi) // 2
-        lo, hi = (lo, mid) if reach_program(Ad, Bd, x0, mid) is not None else (mid, hi)
+        lo, hi = (lo, mid) if reach_program(Ad, Bd, x0, mid, 0.0, u_max) is not None \
+            else (mid, hi)
     return hi * h
 
 
@@ -158,7 +159,7 @@ def mintime_osc_reference(problem) -> dict:
             "step": h, "eps": eps}
 
 
-def switching_law_di(h: float, gain: float = 1.0, floor: float = 1e-3):
+def switching_law_di(h: float, gain: float = 2.0, floor: float = 1e-3):
     """A sampled law of the double integrator near the time-optimal one (for checks, not a
     reference): drive s = x1 + x2 |x2| / 2 (zero on the switching curve) to zero at the rate
     s / (gain h), ds/dt = x2 + |x2| u, so u = -(x2 + s / (gain h)) / |x2|, clipped to +-1 by

@@ -40,7 +40,7 @@ BUILD = SUITE / "build"
 STORED = SUITE / "reference"
 TUTORIAL = ROOT / "docs" / "tutorial"
 
-#: plant FMUs the suite builds at run time: model identifier -> pythonfmu source
+#: plant FMUs the suite builds at run time: model identifier -> the plant file
 PLANT_SOURCES = {"LQPlant": SUITE / "plants" / "lq.py",
                  "CartPole": SUITE / "plants" / "cartpole.py",
                  "Unicycle": SUITE / "plants" / "unicycle.py",

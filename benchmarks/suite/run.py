@@ -1,27 +1,33 @@
 #!/usr/bin/env python
 """The benchmark suite: the network operator against every fixed-structure CMA-ES baseline of each
-problem, at the same flight budget, against a reference computed by other means.
+problem, at the same flight budget, against a reference computed by other means; the tuning
+problems and the held-out ones reported apart.
 
 For every problem of ``--problems`` (benchmarks/suite/suite.py), every method that applies to it
-(``network-operator`` with the problem's own recipe -- the package's default recipe, or S1's
-registered recipe for reentry-second -- and every ``cma-<structure>`` of
+(``network-operator`` with the problem's own recipe -- the package's default recipe, or the
+registered recipe of reentry-second and lunar-descent --, ``nop-lchr0``: the same recipe with
+lchr = 0, the basic law's form only, and every ``cma-<structure>`` of
 :func:`synthesis.methods.registry.method_names`) and every seed, one synthesis run through the
 FMUs (``run_synthesis``, the same evaluator for all) with the problem's flight budget; then a
-table: per method the median over the seeds of the best value of the problem's target objective
-(the last point of ``summary["curve"]``), its ratio to the reference, whether the network
-operator is at least as good as the best baseline on the median, and the form of its best law.
-Finished runs are reused; a run that stopped early (interrupted) is resumed.
+table per half of ``split.toml`` (the held-out protocol: the default recipe is tuned on the
+tuning half only): per method the median over the seeds of the best value of the problem's
+target objective (the last point of ``summary["curve"]``), its ratio to the reference, whether
+the network operator is at least as good as the best baseline on the median, the form of its
+best law (new, or the basic law's) and what that form bought (its median against
+``nop-lchr0``'s).  Finished runs are reused; a run that stopped early (interrupted) is resumed.
 
-    python benchmarks/suite/run.py                                   # everything, ~1 h on 2 cores
+    python benchmarks/suite/run.py                                   # everything (hours)
     python benchmarks/suite/run.py --problems lq parking --seeds 1 --workers 2
     python benchmarks/suite/run.py --problems hopper --methods network-operator   # one method
     python benchmarks/suite/run.py --no-run                          # re-tabulate runs/suite
-    python benchmarks/suite/run.py --no-run --json                   # the table as JSON
+    python benchmarks/suite/run.py --no-run --json                   # the tables as JSON
 
 ``--workers N`` runs N syntheses at once (one process each, every synthesis in one process):
 the flights of the suite's plants (native twins built by ``descent-fmus build-plant``) are
-short, so separate runs use the cores better than a pool inside one run.  ``--flights N`` overrides every problem's budget (smoke tests).
-Writes ``<out>/table.json`` and the figure ``docs/figures/suite.png`` (``--plot``).
+short, so separate runs use the cores better than a pool inside one run.  ``--flights N``
+overrides every problem's budget (smoke tests).
+Writes ``<out>/table.json`` and one figure per half, ``docs/figures/suite-tuning.png`` and
+``suite-held-out.png`` (``--plot``); a malformed ``--split`` file ends with one line (exit 2).
 """
 from __future__ import annotations
 
@@ -39,16 +45,27 @@ HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent.parent
 sys.path.insert(0, str(HERE))
 
+import split  # noqa: E402
 import suite  # noqa: E402
 
 NETWORK_OPERATOR = "network-operator"
+#: the network operator's recipe with lchr = 0 (no structure variations: the basic law's
+#: parameters only), beside it in every table: what the form alone bought
+NOP_LCHR0 = "nop-lchr0"
+#: method variants of the suite: (the method run, the recipe settings changed)
+VARIANTS = {NOP_LCHR0: (NETWORK_OPERATOR, {"lchr": 0})}
 
 
 # -- running ------------------------------------------------------------------------------------
 def methods_of(problem) -> list:
     from descent_fmus.synthesis.methods.registry import method_names
     names = method_names(problem)
-    return [NETWORK_OPERATOR] + [m for m in names if m != NETWORK_OPERATOR]
+    return [NETWORK_OPERATOR, *VARIANTS] + [m for m in names if m != NETWORK_OPERATOR]
+
+
+def is_baseline(method: str) -> bool:
+    """A method the network operator is compared with (not it, nor a variant of it)."""
+    return method != NETWORK_OPERATOR and method not in VARIANTS
 
 
 def run_dir(out: Path, name: str, method: str, seed: int) -> Path:
@@ -69,13 +86,14 @@ def run_one(job: dict) -> dict:
     checkpoint is there); returns a short record."""
     from descent_fmus.synthesis.run.loop import run_synthesis
     d = Path(job["dir"])
+    method, settings = VARIANTS.get(job["method"], (job["method"], {}))
     problem = suite.load(job["problem"], job["fmus"], build=False).tuned(
-        flights=job["flights"], seed=job["seed"], generations=10 ** 6)
+        flights=job["flights"], seed=job["seed"], generations=10 ** 6, **settings)
     t0 = time.perf_counter()
     resume = (d / "checkpoint.json").is_file()
     if resume and (d / "summary.json").is_file():
         (d / "summary.json").unlink()                 # a shorter finished run: resumed
-    s = run_synthesis(problem, d, job["fmus"], method=job["method"], workers=1,
+    s = run_synthesis(problem, d, job["fmus"], method=method, workers=1,
                       resume=resume, progress=False, export=False, reference=False)
     return {**job, "seconds": time.perf_counter() - t0, "flights_done": s.get("flights"),
             "interrupted": bool(s.get("interrupted"))}
@@ -155,7 +173,8 @@ def run_all(names, seeds, out: Path, fmus, workers: int, flights_override=None,
 
 #: relative cost of a flight per problem (seconds on this machine, for the job order only)
 _COSTS = {"lunar-descent": 0.08, "cartpole": 0.06, "hopper": 0.05, "lq": 0.035,
-          "parking": 0.03, "reentry-second": 0.004}
+          "parking": 0.03, "reentry-second": 0.004, "parking-box": 0.05,
+          "mintime-di": 0.02, "mintime-osc": 0.03}
 
 
 def _flight_cost(name: str) -> float:
@@ -226,7 +245,8 @@ def tabulate(names, seeds, out: Path, fmus=None) -> dict:
         table[name] = {"reference": ref["value"], "reference_label": ref["label"],
                        "reference_note": ref_details, "plot": spec.plot,
                        "goal": spec.goal, "goal_ratio": spec.goal_ratio, "rows": rows,
-                       "verdict": verdict(rows, ref["value"], spec.goal_ratio)}
+                       "verdict": verdict(rows, ref["value"], spec.goal_ratio,
+                                          spec.goal_value)}
         table[name]["reference_details"] = _jsonable(ref["details"])
     return table
 
@@ -235,12 +255,20 @@ def tabulate(names, seeds, out: Path, fmus=None) -> dict:
 CLEARLY = 0.9
 
 
-def verdict(rows, ref, goal_ratio) -> dict:
+def verdict(rows, ref, goal_ratio, goal_value=None) -> dict:
     """Against the best baseline on the median: ``at_least_as_good``, ``clearly_better``
-    (median <= 0.9 x the best baseline's), the ratio of the two, and the goal met."""
+    (median <= 0.9 x the best baseline's), the ratio of the two, and the goal met (median
+    <= goal_ratio x the reference, or <= goal_value)."""
     no = next((r for r in rows if r["method"] == NETWORK_OPERATOR), None)
-    base = [r for r in rows if r["method"] != NETWORK_OPERATOR]
+    base = [r for r in rows if is_baseline(r["method"])]
     out = {}
+    if no is not None:
+        out.update(form_bought(no, next((r for r in rows if r["method"] == NOP_LCHR0), None)))
+        n = no["median"]
+        if goal_ratio is not None and ref:
+            out["goal_met"] = bool(n == n and n / ref <= goal_ratio)
+        elif goal_value is not None:
+            out["goal_met"] = bool(n == n and n <= goal_value)
     if no is None or not base:
         return out
     best = min(base, key=lambda r: r["median"] if r["median"] == r["median"] else math.inf)
@@ -254,8 +282,19 @@ def verdict(rows, ref, goal_ratio) -> dict:
         out.update(at_least_as_good=True, clearly_better=True, no_over_best_baseline=0.0)
     else:
         out.update(at_least_as_good=False, clearly_better=False)
-    if goal_ratio is not None and ref:
-        out["goal_met"] = bool(n == n and n / ref <= goal_ratio)
+    return out
+
+
+def form_bought(no: dict, lchr0: dict | None) -> dict:
+    """Whether the network operator's best law (of its median seed) has a new form, and its
+    median over the same recipe's without structure variations (:data:`NOP_LCHR0`)."""
+    keeps = no.get("keeps_basic_form")
+    out = {"new_form": None if keeps is None else not keeps}
+    if lchr0 is not None:
+        n, z = no["median"], lchr0["median"]
+        out["lchr0_median"] = z
+        if n == n and z == z and z != math.inf:
+            out["no_over_lchr0"] = n / z if z > 0 else (1.0 if n == z else math.inf)
     return out
 
 
@@ -298,30 +337,35 @@ def print_table(table: dict, seeds) -> None:
             print(f"  {r['method']:18s} {_fmt(r['median'], 7):>11s} {_fmt(r['ratio'], 5):>9s}"
                   f"  {per}" + (f"  [{r['details']}]" if r.get("details") else ""))
         v = t["verdict"]
-        if v:
+        if "best_baseline" in v:
             print(f"  network operator / best baseline ({v['best_baseline']}): "
                   f"{_fmt(v.get('no_over_best_baseline'), 4)}; at least as good: "
                   f"{'yes' if v.get('at_least_as_good') else 'no'}; clearly better (<= "
-                  f"{CLEARLY} x): {'yes' if v.get('clearly_better') else 'no'}"
-                  + (f"; goal met: {'yes' if v['goal_met'] else 'no'}" if "goal_met" in v
-                     else ""))
+                  f"{CLEARLY} x): {'yes' if v.get('clearly_better') else 'no'}")
+        if "goal_met" in v:
+            print(f"  goal met: {'yes' if v['goal_met'] else 'no'}")
         no = next((r for r in t["rows"] if r["method"] == NETWORK_OPERATOR), None)
         if no is not None:
             form = ("keeps the basic law's form" if no["keeps_basic_form"]
                     else "a new form" if no["keeps_basic_form"] is not None else "?")
             print(f"  network operator's best law (seed {no['median_seed']}, {form}): "
                   f"{no['law']}")
+        if "lchr0_median" in v:
+            print(f"  the same recipe without structure variations ({NOP_LCHR0}): median "
+                  f"{_fmt(v['lchr0_median'], 7)}; network operator / it: "
+                  f"{_fmt(v.get('no_over_lchr0'), 4)} (what the form bought, if the form is new)")
 
 
 # -- the figure --------------------------------------------------------------------------------
-def plot(table: dict, path: Path) -> None:
+def plot(table: dict, path: Path, title: str = "") -> None:
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     names = list(table)
     cols = min(3, len(names))
     rows = math.ceil(len(names) / cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.0 * rows), squeeze=False)
+    fig, axes = plt.subplots(rows, cols, figsize=(max(5.2 * cols, 7.0), 4.0 * rows),
+                             squeeze=False)
     for ax, name in zip(axes.ravel(), names):
         t = table[name]
         ref = t["reference"]
@@ -357,12 +401,19 @@ def plot(table: dict, path: Path) -> None:
         ax.legend(fontsize=7)
     for ax in axes.ravel()[len(names):]:
         ax.axis("off")
-    fig.suptitle("benchmark suite: the best value of each problem's target objective against "
-                 "flights, every method and seed", fontsize=11)
+    fig.suptitle("benchmark suite" + (f": {title}" if title else "") + "\nthe best value "
+                 "of the target objective against flights, every method and seed",
+                 fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+def figure_path(base: Path, half: str) -> Path:
+    """The learning-curve figure of one half: ``suite.png`` -> ``suite-tuning.png``,
+    ``suite-held-out.png``."""
+    return base.with_name(f"{base.stem}-{half.replace('_', '-')}{base.suffix}")
 
 
 def main(argv=None):
@@ -376,34 +427,52 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=ROOT / "runs" / "suite")
     ap.add_argument("--workers", type=int, default=2, help="runs at once (one process each)")
     ap.add_argument("--fmus", type=Path, default=None, help="the package's FMU folder")
+    ap.add_argument("--split", type=Path, default=split.SPLIT,
+                    help="the held-out protocol: tuning and held-out problems (split.toml)")
     ap.add_argument("--no-run", action="store_true",
                     help="run nothing: tabulate the runs in --out as they are")
     ap.add_argument("--json", action="store_true", help="print the table as JSON")
-    ap.add_argument("--plot", type=Path, default=ROOT / "docs" / "figures" / "suite.png",
-                    help="the learning-curve figure (default docs/figures/suite.png)")
+    ap.add_argument("--plot", type=lambda v: Path(v) if v else None,
+                    default=ROOT / "docs" / "figures" / "suite.png",
+                    help="the learning-curve figures, one per half (default "
+                         "docs/figures/suite-tuning.png and suite-held-out.png; '' for none)")
     ap.add_argument("--job", help=argparse.SUPPRESS)        # one run (the runner's child)
     args = ap.parse_args(argv)
     if args.job:
         _child(args.job)
+    try:
+        halves = split.read_split(args.split, suite.ORDER)
+    except split.SplitError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        sys.exit(2)
     t0 = time.perf_counter()
     if not args.no_run:
         run_all(args.problems, args.seeds, args.out, args.fmus, args.workers, args.flights,
                 args.methods)
     table = tabulate(args.problems, args.seeds, args.out, args.fmus)
     wall = time.perf_counter() - t0
+    parts = {half: {n: dict(table[n], half=half) for n in halves[half] if n in table}
+             for half, _ in split.HALVES}
     args.out.mkdir(parents=True, exist_ok=True)
-    slim = {n: {k: v for k, v in t.items()} for n, t in table.items()}
-    (args.out / "table.json").write_text(json.dumps(_jsonable(slim), indent=1))
+    (args.out / "table.json").write_text(json.dumps(_jsonable(dict(split=halves, **parts)),
+                                                    indent=1))
     if args.json:
-        print(json.dumps(_jsonable({n: {k: v for k, v in t.items() if k != "reference_details"}
-                                    for n, t in table.items()}), indent=1))
+        print(json.dumps(_jsonable(dict(split=halves, **{
+            half: {n: {k: v for k, v in t.items() if k != "reference_details"}
+                   for n, t in part.items()} for half, part in parts.items()})), indent=1))
     else:
-        print_table(table, args.seeds)
+        for half, title in split.HALVES:
+            if parts[half]:
+                print(f"\n######## {title}: {', '.join(parts[half])}")
+                print_table(parts[half], args.seeds)
         if not args.no_run:
             print(f"\nwall time of this invocation: {wall:.0f} s ({os.cpu_count()} cores)")
     if args.plot:
-        plot(table, args.plot)
-        print(f"figure: {args.plot}", file=sys.stderr if args.json else sys.stdout)
+        for half, title in split.HALVES:
+            if parts[half]:
+                path = figure_path(args.plot, half)
+                plot(parts[half], path, title)
+                print(f"figure: {path}", file=sys.stderr if args.json else sys.stdout)
 
 
 if __name__ == "__main__":
