@@ -70,5 +70,5 @@ def run_build_plant(args) -> int:
     if not bad:
         lines.append(f"fmpy validate: no problems ({len(r.get('validate', {}))} FMUs)")
     emit(args, r, "\n".join(lines))
-    failed = (c is not None and not c.get("equal")) or bool(bad)
+    failed = (c is not None and not c.get("equal")) or bool(bad) or "error" in r
     return 1 if failed else 0

@@ -184,8 +184,13 @@ def build_plant(path, dest=None, check: bool = True, class_name: str | None = No
             reason = str(exc)
     with tempfile.TemporaryDirectory(prefix="descent_plant_") as tmp:
         t0 = time.perf_counter()
-        built = None if reason else _native_sources(cls, path, Path(tmp) / f"{ident}.fmu",
-                                                     compiler)
+        built = None
+        if reason is None:
+            from descent_fmus.synthesis.fmi.native.build import NativeBuildError
+            try:
+                built = _native_sources(cls, path, Path(tmp) / f"{ident}.fmu", compiler)
+            except NativeBuildError as exc:          # the generated C: a defect, reported
+                reason = report["error"] = f"the generated C did not compile: {exc}"
         report["seconds"]["native"] = round(time.perf_counter() - t0, 2)
         t0 = time.perf_counter()
         dest.mkdir(parents=True, exist_ok=True)
