@@ -42,12 +42,13 @@ class Integrator:
 
     Parameters
     ----------
-    dt : float
-        RK4 sub-step [s] (> 0).
+    dt : float or None
+        RK4 sub-step [s] (> 0); None for a plant that chooses its own steps in ``advance``
+        (a number of sub-steps per communication step, or an exact step in closed form).
     """
 
-    def __init__(self, dt: float):
-        self.dt = require_positive("dt", dt)
+    def __init__(self, dt: float | None):
+        self.dt = None if dt is None else require_positive("dt", dt)
         self.reset()
 
     def initial_state(self) -> tuple:

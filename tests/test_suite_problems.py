@@ -39,7 +39,8 @@ import suite  # noqa: E402
 
 @pytest.fixture(scope="module")
 def built():
-    """The plants these tests fly, built by pythonfmu into benchmarks/suite/build/."""
+    """The plants these tests fly, built by build-plant into benchmarks/suite/build/ (each
+    with its native twin, which the problems fly)."""
     return R.build_plants(names=("DoubleIntegrator", "Oscillator", "Unicycle"))
 
 

@@ -31,7 +31,7 @@ __all__ = ["time_to_go", "plant_matrices", "discretise", "reach_program", "box_r
 
 
 def _plant_module(name: str):
-    """The pythonfmu source ``plants/<name>.py`` as a module (its closed forms, one definition)."""
+    """The plant file ``plants/<name>.py`` as a module (its closed forms, one definition)."""
     spec = importlib.util.spec_from_file_location(f"suite_plant_{name}",
                                                   SUITE / "plants" / f"{name}.py")
     mod = importlib.util.module_from_spec(spec)

@@ -40,7 +40,7 @@ BUILD = SUITE / "build"
 STORED = SUITE / "reference"
 TUTORIAL = ROOT / "docs" / "tutorial"
 
-#: plant FMUs the suite builds at run time: model identifier -> pythonfmu source
+#: plant FMUs the suite builds at run time: model identifier -> the plant file
 PLANT_SOURCES = {"LQPlant": SUITE / "plants" / "lq.py",
                  "CartPole": SUITE / "plants" / "cartpole.py",
                  "Unicycle": SUITE / "plants" / "unicycle.py",
@@ -55,20 +55,36 @@ LUNAR_DESCENT_CMA_J1 = 0.017
 
 # -- building the plants -------------------------------------------------------------------------
 def build_plants(dest: Path = BUILD, names=None, force: bool = False) -> dict:
-    """Build the suite's pythonfmu plants into ``dest`` (``python -m pythonfmu build``, as a
-    user would), each only if missing or older than its source; copy the tutorial's
-    ``hopper.toml`` beside its FMU.  Returns {identifier: FMU path}."""
+    """Build the suite's plants into ``dest`` with ``descent-fmus build-plant`` (as a user
+    would: each plant file gives its pythonfmu FMU and, beside it in ``native/``, its native C
+    twin checked bit for bit, which the problems then fly), each only if missing or older than
+    its source; copy the tutorial's ``hopper.toml`` beside its FMU.  Returns {identifier: FMU
+    path}."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from descent_fmus.synthesis.fmi.native.build import find_compiler
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
-    out = {}
+    native = find_compiler() is not None
+    out, todo = {}, []
     for name, src in PLANT_SOURCES.items():
         if names is not None and name not in names:
             continue
         fmu = dest / f"{name}.fmu"
-        if force or not fmu.is_file() or fmu.stat().st_mtime < src.stat().st_mtime:
-            subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(src), "-d",
-                            str(dest)], check=True, capture_output=True)
         out[name] = fmu
+        if force or not fmu.is_file() or fmu.stat().st_mtime < src.stat().st_mtime or (
+                native and not (dest / "native" / fmu.name).is_file()):
+            todo.append(src)
+
+    def build(src):
+        r = subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli.main",
+                            "build-plant", str(src), "-d", str(dest)], capture_output=True,
+                           text=True)
+        if r.returncode != 0:
+            raise RuntimeError(f"build-plant {src.name}: "
+                               f"{(r.stderr or r.stdout).strip().splitlines()[-1:]}")
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        list(pool.map(build, todo))
     if names is None or "Hopper" in names:
         shutil.copyfile(TUTORIAL / "hopper.toml", dest / "hopper.toml")
     return out

@@ -23,8 +23,9 @@ best law (new, or the basic law's) and what that form bought (its median against
     python benchmarks/suite/run.py --no-run --json                   # the tables as JSON
 
 ``--workers N`` runs N syntheses at once (one process each, every synthesis in one process):
-the flights of the suite's pythonfmu plants are short, so separate runs use the cores better
-than a pool inside one run.  ``--flights N`` overrides every problem's budget (smoke tests).
+the flights of the suite's plants (native twins built by ``descent-fmus build-plant``) are
+short, so separate runs use the cores better than a pool inside one run.  ``--flights N``
+overrides every problem's budget (smoke tests).
 Writes ``<out>/table.json`` and one figure per half, ``docs/figures/suite-tuning.png`` and
 ``suite-held-out.png`` (``--plot``); a malformed ``--split`` file ends with one line (exit 2).
 """

@@ -2,8 +2,10 @@
 its goal (``benchmarks/suite/run.py`` runs them; docs/benchmarks/suite.md).
 
 Every problem is a :class:`~synthesis.problems.contract.SynthesisProblem` the package's run loop
-drives as it is -- four problem files in this folder on plant FMUs written here with pythonfmu
-(built at run time into ``build/``, as a user would), the tutorial's hopper file, and the
+drives as it is -- problem files in this folder on plants written here once each, in the
+package's model style (built at run time into ``build/`` by ``descent-fmus build-plant``, as a
+user would: the pythonfmu FMU and its native twin, which the runs fly), the tutorial's hopper
+file, and the
 registered S5 problem.  The learning curve of a run follows the problem's target, else its
 first objective (:func:`synthesis.methods.registry.cma_target`): the value tabulated.
 """

@@ -4,6 +4,7 @@ One pattern: general commands act on any problem, system commands are
 ``descent-fmus <system> <action>``::
 
     descent-fmus synthesize NAME | --problem FILE.toml --out DIR   synthesis of a feedback law
+    descent-fmus build-plant FILE.py [-d DIR]                      a plant: pythonfmu + native twin
     descent-fmus problems                                          registered problems, systems
     descent-fmus info SYSTEM                                       FMUs and parameter tables
     descent-fmus reentry fly | bound | robustness
@@ -41,6 +42,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_export_law_command(sub)
     from descent_fmus.synthesis.cli.fine_output import add_fine_output_command
     add_fine_output_command(sub)
+    from descent_fmus.synthesis.cli.build_plant import add_build_plant_command
+    add_build_plant_command(sub)
     p = sub.add_parser("problems", help="list the registered synthesis problems and systems")
     add_common_options(p, fmus=False)
     p.set_defaults(func=run_problems)

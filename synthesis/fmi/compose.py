@@ -27,8 +27,8 @@ from fmpy import read_model_description
 from descent_fmus.synthesis.fmi.closed_loop import Wiring
 from descent_fmus.synthesis.paths import require_fmu
 
-__all__ = ["build_slave", "model_closure", "with_defaults", "closed_loop_fmu", "write_ssp",
-           "add_units", "add_status_wrapper", "refine_container"]
+__all__ = ["build_slave", "build_bundle", "model_imports", "model_closure", "with_defaults", "closed_loop_fmu",
+           "write_ssp", "add_units", "add_status_wrapper", "refine_container"]
 
 #: The models package (bundled into every pythonfmu FMU, only the modules the FMU imports).
 MODELS = Path(__file__).resolve().parents[2] / "models"
@@ -37,7 +37,7 @@ if not (MODELS / "fmu_support.py").is_file():      # installed: the sibling pack
     MODELS = Path(_models.__file__).parent
 
 
-def _model_imports(path: Path) -> set:
+def model_imports(path: Path) -> set:
     """Modules of descent_fmus.models that ``path`` imports (names relative to the package)."""
     import ast
     out = set()
@@ -66,7 +66,7 @@ def model_closure(module: str) -> list[str]:
         if not path.is_file():
             raise FileNotFoundError(f"no module descent_fmus.models.{m} ({path})")
         seen.add(m)
-        todo.extend(_model_imports(path) - seen)
+        todo.extend(model_imports(path) - seen)
     return sorted(seen)
 
 
@@ -76,9 +76,10 @@ def entry_script(module: str, cls: str) -> str:
     pythonfmu 0.7 re-executes the entry module's code in the module's namespace every time the
     FMU is instantiated and then releases one reference to that namespace it never took
     (``models.pythonfmu_compat``); the last line takes that reference on every execution.
-    """
-    return (f'"""pythonfmu entry point of the {cls} FMU (written by build_fmus.py)."""\n'
-            f"from descent_fmus.models.{module} import {cls}  # noqa: F401\n"
+    ``module``: of descent_fmus.models, or ``"/name"``: a top-level one (a user's plant)."""
+    source = module[1:] if module.startswith("/") else f"descent_fmus.models.{module}"
+    return (f'"""pythonfmu entry point of the {cls} FMU (written by descent-fmus)."""\n'
+            f"from {source} import {cls}  # noqa: F401\n"
             f"from descent_fmus.models.pythonfmu_compat import balance_namespace\n"
             f"balance_namespace(globals())\n")
 
@@ -92,20 +93,28 @@ def build_slave(fmu_class: str, dest_dir: Path) -> Path:
     finds its modules whichever was loaded first), and an installed descent-fmus keeps its own
     regular packages.
     """
-    from pythonfmu import FmuBuilder
-
     module, cls = fmu_class.split(":")
+    return build_bundle(module, cls, model_closure(module), dest_dir)
+
+
+def build_bundle(module: str, cls: str, modules, dest_dir: Path, extra=()) -> Path:
+    """:func:`build_slave` of ``cls`` of ``module`` (:func:`entry_script`) with the models
+    ``modules`` and the ``extra`` files ``(path, name)`` beside the entry."""
+    from pythonfmu import FmuBuilder
     with tempfile.TemporaryDirectory(prefix="descent_fmus_") as tmp:
         tmp = Path(tmp)
         pkg = tmp / "descent_fmus"
-        for m in model_closure(module):
+        for m in modules:
             rel = Path(*m.split(".")).with_suffix(".py")
             (pkg / "models" / rel).parent.mkdir(parents=True, exist_ok=True)
             shutil.copy(MODELS / rel, pkg / "models" / rel)
         script = tmp / "entry" / f"{cls}.py"
         script.parent.mkdir()
         script.write_text(entry_script(module, cls))
-        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg]))
+        for f, name in extra:               # beside the entry: importable when pythonfmu builds
+            shutil.copy(f, script.parent / name)
+        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg] + [
+            script.parent / name for _, name in extra]))
     return add_status_wrapper(add_units(fmu))
 
 

@@ -14,7 +14,7 @@ only those that differ are set -- one ``fmi2SetReal`` and one ``fmi2SetInteger``
 law's start values may come as ``(names, array)`` (``NetworkOperator.start_array``: 15 us a law
 where the dict takes 46 us and its reading as an array 22 us more).
 
-:func:`native_fmus` says whether a wiring's native twins exist.
+:func:`native_fmus` says whether a wiring's native twins exist (:func:`missing_twins`: why not).
 """
 from __future__ import annotations
 
@@ -27,7 +27,7 @@ import numpy as np
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
 from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
 
-__all__ = ["NativeContainerLoop", "Layouts", "native_fmus", "NATIVE_DIR"]
+__all__ = ["NativeContainerLoop", "Layouts", "native_fmus", "missing_twins", "NATIVE_DIR"]
 
 #: The folder of the native FMUs inside the FMU folder.
 NATIVE_DIR = "native"
@@ -54,6 +54,23 @@ def native_fmus(wiring: Wiring, plant_fmu, controller_fmu) -> tuple[Path, Path] 
             return None
         out.append(twin)
     return out[0], out[1]
+
+
+def missing_twins(wiring: Wiring, plant_fmu, controller_fmu) -> str | None:
+    """Why a wiring's flights run on its pythonfmu FMUs: the native twins :func:`native_fmus`
+    looks for and does not find, in one line (None when both exist)."""
+    missing = []
+    for path, ident in ((Path(plant_fmu), wiring.plant), (Path(controller_fmu),
+                                                           wiring.controller)):
+        twin = path.parent / NATIVE_DIR / f"{ident}.fmu"
+        if path.stem != ident:
+            missing.append(f"{path.name} is not named after its model identifier {ident}")
+        elif not twin.is_file():
+            missing.append(f"no {NATIVE_DIR}/{ident}.fmu beside {path.name}")
+    if not missing:
+        return None
+    return ("flying the pythonfmu FMUs: " + "; ".join(missing) + " (descent-fmus build-plant "
+            "PLANT.py builds a plant's twin, python build_fmus.py the package's)")
 
 
 class _Layout:

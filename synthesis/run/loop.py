@@ -210,6 +210,17 @@ class _Progress:
         self.bar.close()
 
 
+def _announce_path(problem, evaluator, announce) -> None:
+    """The path the flights take, and where it is not native although it could be, why."""
+    announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
+             f"{'worker' if evaluator.workers == 1 else 'workers'})")
+    if evaluator.path in ("master", "container") and problem.runner.native is not False:
+        from descent_fmus.synthesis.fmi.native_loop import missing_twins
+        note = missing_twins(problem.wiring, *evaluator.fmus)
+        if note:
+            announce(note)
+
+
 def _announcer(problem, progress: bool):
     """``announce(text)``: one line on stderr per phase of the run (nothing with ``progress``
     off), printed so that it does not break a progress bar."""
@@ -277,8 +288,7 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
                  else f"connecting to the Dask scheduler at {scheduler}")
     evaluator = Evaluator(problem, fmu_dir, workers=workers, scheduler=scheduler,
                           fail_loudly=True)
-    announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
-             f"{'worker' if evaluator.workers == 1 else 'workers'})")
+    _announce_path(problem, evaluator, announce)
     if st:
         evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)))
     checkpoints = _Checkpoints(folder, evaluator, curve)

@@ -1,12 +1,12 @@
-"""A harmonic oscillator with a bounded input, for the suite's second minimum-time problem;
-pythonfmu only.
+"""A harmonic oscillator with a bounded input, for the suite's second minimum-time problem.
 
-Build: ``python -m pythonfmu build -f benchmarks/suite/plants/oscillator.py -d DIR``.
+Written once in the package's model style; ``descent-fmus build-plant
+benchmarks/suite/plants/oscillator.py -d DIR`` builds its pythonfmu FMU and its native C twin.
 
     dx1/dt = x2,   dx2/dt = -x1 + u,   |u| <= u_max
 
-The input is clipped to [-u_max, u_max] and held over the communication step, so each step is
-exact: the state turns clockwise about (u, 0) by the angle h,
+The input is clipped to [-u_max, u_max] (NaN: 0) and held over the communication step, so each
+step is exact: the state turns clockwise about (u, 0) by the angle h,
 
     x1 - u <- (x1 - u) cos h + x2 sin h,   x2 <- -(x1 - u) sin h + x2 cos h.
 
@@ -14,51 +14,65 @@ Besides the state the plant outputs ``r = max(|x1|, |x2|)``, the distance to the
 maximum norm (a problem file's target box |x1|, |x2| <= eps is ``r <= eps``).
 """
 import math
+from dataclasses import dataclass
 
-from pythonfmu import Fmi2Causality, Fmi2Slave, Fmi2Variability, Real
-from pythonfmu.enums import Fmi2Initial
+from descent_fmus.models.fmu_support import SlaveBase
+from descent_fmus.models.integrators import Integrator
+from descent_fmus.models.params import Params, param
+from descent_fmus.models.traceable import clip, maximum, where
 
 
-class Oscillator(Fmi2Slave):
+@dataclass(frozen=True)
+class OscillatorParams(Params):
+    x10: float = param(1.0, "1", "initial x1")
+    x20: float = param(0.0, "1", "initial x2")
+    u_max: float = param(1.0, "1", "input bound", nonnegative=True)
+
+
+class OscillatorStep(Integrator):
+    """One exact step per communication step (no sub-steps)."""
+
+    def __init__(self, p: OscillatorParams):
+        self.p = p.validate()
+        super().__init__(None)
+
+    def initial_state(self) -> tuple:
+        return (self.p.x10, self.p.x20)
+
+    def advance(self, t_end: float, h: float, u: float) -> None:
+        """The step of ``h`` [s] ending at ``t_end`` [s] under ``u``, held."""
+        x1, x2 = self.x
+        c, s = math.cos(h), math.sin(h)
+        z = x1 - u
+        self.x, self.t = (u + z * c + x2 * s, -z * s + x2 * c), t_end
+
+
+class Oscillator(SlaveBase):
 
     author = "descent-fmus benchmark suite"
     description = "Harmonic oscillator x'' + x = u, |u| <= u_max (suite: mintime-osc)"
-
-    PARAMETERS = (("x10", 1.0, "initial x1"), ("x20", 0.0, "initial x2"),
-                  ("u_max", 1.0, "input bound"))
+    params_class = OscillatorParams
 
     def __init__(self, **kwargs):
         super().__init__(**kwargs)
-        for name, value, desc in self.PARAMETERS:
-            setattr(self, name, value)
-            self.register_variable(Real(name, causality=Fmi2Causality.parameter,
-                                        variability=Fmi2Variability.fixed, description=desc))
-        self.u = 0.0
-        self.register_variable(Real("u", causality=Fmi2Causality.input,
-                                    variability=Fmi2Variability.continuous,
-                                    description="control, clipped to +-u_max, held over the step"))
-        self._start()
-        for name, desc in (("x1", "position"), ("x2", "velocity"),
-                           ("r", "max(|x1|, |x2|)")):
-            self.register_variable(Real(name, causality=Fmi2Causality.output,
-                                        variability=Fmi2Variability.continuous,
-                                        initial=Fmi2Initial.exact, description=desc))
+        self.parameters()
+        self.input("u", 0.0, "control, clipped to +-u_max, held over the step")
+        for name, desc in (("x1", "position"), ("x2", "velocity"), ("r", "max(|x1|, |x2|)")):
+            self.output(name, desc)
+        self.status_outputs(lambda: self._ig.status, lambda: self._ig.t_end_output)
+        self.prepare()
 
-    def _publish(self):
-        self.r = max(abs(self.x1), abs(self.x2))
-
-    def _start(self):
-        self.x1, self.x2 = self.x10, self.x20
+    def prepare(self) -> None:
+        self._ig = OscillatorStep(self.params())
         self._publish()
 
-    def exit_initialization_mode(self):
-        self._start()
+    def _publish(self) -> None:
+        self.x1, self.x2 = self._ig.x
+        self.r = maximum(abs(self.x1), abs(self.x2))
 
-    def do_step(self, current_time, step_size):
+    def do_step(self, current_time: float, step_size: float) -> bool:
         u = self.u
-        u = 0.0 if u != u else min(max(u, -self.u_max), self.u_max)     # NaN: no force
-        c, s = math.cos(step_size), math.sin(step_size)
-        z = self.x1 - u
-        self.x1, self.x2 = u + z * c + self.x2 * s, -z * s + self.x2 * c
+        u = where(u != u, 0.0, lambda: clip(u, -self.u_max, self.u_max))     # NaN: no force
+        self._ig.advance(current_time + step_size, step_size, u)
         self._publish()
         return True

@@ -40,10 +40,11 @@ PLANT_FILES = ("plant_model.c", "plant_runtime.c", "plant_runtime.h")
 
 @dataclass(frozen=True)
 class PlantSpec:
-    """A plant FMU class (``"module:Class"`` under ``descent_fmus.models``), the prefix of its
-    C names and its structural Integer parameters (name -> values traced one by one)."""
+    """A plant FMU class (``"module:Class"`` under ``descent_fmus.models``, or the class itself:
+    a user's plant, :mod:`.user_plant`), the prefix of its C names and its structural Integer
+    parameters (name -> values traced one by one)."""
 
-    fmu_class: str
+    fmu_class: str | type
     prefix: str
     structural: dict = field(default_factory=dict)
     #: model functions exported with stable C names (plant_library): name -> ("module:qualname",
@@ -51,6 +52,8 @@ class PlantSpec:
     exports: dict = field(default_factory=dict)
 
     def load(self):
+        if isinstance(self.fmu_class, type):
+            return self.fmu_class
         module, cls = self.fmu_class.split(":")
         return getattr(importlib.import_module(f"descent_fmus.models.{module}"), cls)
 
@@ -148,14 +151,16 @@ def plant_sources(spec: PlantSpec) -> tuple[dict, object]:
     return {f"{p}_plant.h": h, f"{p}_plant.c": "\n".join(c), "model_config.h": config}, codes[0]
 
 
-def build_plant_fmu(identifier: str, dest, compiler: str | None = None) -> Path:
-    """The native FMU of the plant ``identifier`` (a key of :data:`PLANTS`) at ``dest``.
+def build_plant_fmu(identifier: str, dest, compiler: str | None = None,
+                    spec: PlantSpec | None = None) -> Path:
+    """The native FMU of the plant ``identifier`` (a key of :data:`PLANTS`, or the model
+    identifier of ``spec``) at ``dest``.
 
     Raises
     ------
-    CompilerNotFoundError, NativeBuildError
+    TraceError, CompilerNotFoundError, NativeBuildError
     """
-    spec = PLANTS[identifier]
+    spec = spec or PLANTS[identifier]
     files, code = plant_sources(spec)
     variables, description = slave_variables(code.cls)
     return build_fmu(dest, identifier, description, variables, files, list(PLANT_FILES),

@@ -30,7 +30,7 @@ from descent_fmus.synthesis.fmi.native.plant_calls import (CALL_RENDERERS, SlotL
                                                            traced_propagate, using_unit)
 from descent_fmus.synthesis.fmi.native.plant_codegen import Scope, render_function
 from descent_fmus.synthesis.fmi.native.plant_numpy import TRACED_NUMPY
-from descent_fmus.synthesis.fmi.native.plant_shims import patched
+from descent_fmus.synthesis.fmi.native.plant_shims import own_modules, patched
 from descent_fmus.synthesis.fmi.native.plant_trace import (Source, Sym, TraceError, Tracer,
                                                            check_python, explore, operand)
 
@@ -355,7 +355,7 @@ class PlantCode:
                               lambda value, scope, ind: [f"{ind}return PC_OK;"])
 
     def trace_all(self) -> "PlantCode":
-        with patched(_INTERCEPTORS), using_unit(self.unit):
+        with patched(_INTERCEPTORS, own_modules(self.cls)), using_unit(self.unit):
             self._bind(self.inst)
             self.trace_check()
             self.trace_start()
@@ -391,7 +391,7 @@ def dispatch_functions(cls, prefix: str, name: str, variants: dict) -> list:
         return lines + [f"{ind}}}", f"{ind}return PC_ERROR;"]
 
     out = []
-    with patched(_INTERCEPTORS), using_unit(code.unit):
+    with patched(_INTERCEPTORS, own_modules(cls)), using_unit(code.unit):
         code._bind(code.inst)
         tracer = Tracer(f"{prefix} check")
         tracer.hooks["dispatch"] = True

@@ -24,7 +24,8 @@ from contextlib import contextmanager
 from descent_fmus.synthesis.fmi.native.plant_trace import (Sym, TraceError, active, evaluate,
                                                            is_sym)
 
-__all__ = ["TRACED_MATH", "patched", "evaluate", "C_FUNCTIONS", "BINARY_C", "UNARY_MATH"]
+__all__ = ["TRACED_MATH", "patched", "own_modules", "evaluate", "C_FUNCTIONS", "BINARY_C",
+           "UNARY_MATH"]
 
 #: math functions of one argument recorded as an operation (CPython: the C library's function,
 #: an error where the result is NaN from a number or infinite from a finite number)
@@ -34,7 +35,8 @@ BINARY_C = {"add": "+", "sub": "-", "mul": "*", "lt": "<", "le": "<=", "gt": ">"
             "eq": "==", "ne": "!="}
 #: C function of the other operations (their error flag is the last argument where they have one)
 C_FUNCTIONS = dict({f: f"py_{f}" for f in UNARY_MATH},
-                   div="py_div", pow="py_pow", hypot="py_hypot", atan2="atan2", fabs="fabs",
+                   div="py_div", pow="py_pow", fmod="py_fmod", hypot="py_hypot", atan2="atan2",
+                   fabs="fabs",
                    copysign="copysign", ceil="py_ceil", floor="py_floor", isfinite="isfinite",
                    isnan="isnan", isinf="isinf", to_double="(double)")
 
@@ -103,9 +105,10 @@ def _unsupported(name):
 _TracedMath.hypot = _hypot
 _TracedMath.atan2 = _binary("atan2")
 _TracedMath.copysign = _binary("copysign")
+_TracedMath.fmod = _binary("fmod")
 for _name in ("isfinite", "isnan", "isinf"):
     setattr(_TracedMath, _name, _predicate(_name))
-for _name in ("pow", "fmod", "fsum", "prod", "dist", "remainder", "ldexp", "frexp", "modf",
+for _name in ("pow", "fsum", "prod", "dist", "remainder", "ldexp", "frexp", "modf",
               "trunc", "erf", "erfc", "gamma", "lgamma", "log2", "log10", "expm1", "sinh", "cosh",
               "asinh", "acosh", "atanh", "degrees", "radians"):
     setattr(_TracedMath, _name, _unsupported(_name))
@@ -127,6 +130,18 @@ def _traced_sum(values, start=0):
     """``sum()``: CPython 3.11 adds floats in order, from ``0 + first`` (3.12 compensates; the
     generator runs on 3.11 only, ``plant_trace.check_python``)."""
     return builtins.sum(values, start)
+
+
+def own_modules(cls) -> list:
+    """The modules outside the package that define the plant class ``cls`` or a base of it (a
+    user's plant, ``descent-fmus build-plant``): traced as the package's models are."""
+    out = []
+    for c in cls.__mro__:
+        m = sys.modules.get(c.__module__)
+        if m is not None and m not in out and not m.__name__.startswith(
+                ("descent_fmus.", "pythonfmu", "builtins")):
+            out.append(m)
+    return out
 
 
 def _model_modules():

@@ -27,15 +27,18 @@ from dataclasses import dataclass, field
 from descent_fmus.models.params import ParameterError
 
 __all__ = ["Sym", "Source", "Tracer", "Node", "TraceError", "StructuralValue", "explore",
-           "active", "operand", "is_sym", "evaluate", "MAX_PATHS"]
+           "active", "operand", "is_sym", "evaluate", "MAX_PATHS", "MAX_DECISIONS"]
 
 #: Paths one traced function may have (a model with more should flatten a branch with
 #: ``models.traceable.where``).
 MAX_PATHS = 4096
 
+#: Decisions one path may take (more: a loop on a traced value, which never ends when traced).
+MAX_DECISIONS = 2000
+
 #: Operations that may raise in Python (ArithmeticError or ValueError) -- the C code flags them.
-MAY_RAISE = {"div", "pow", "sqrt", "exp", "log", "log1p", "sin", "cos", "tan", "asin", "acos",
-             "atan", "tanh", "ceil", "floor"}
+MAY_RAISE = {"div", "pow", "fmod", "sqrt", "exp", "log", "log1p", "sin", "cos", "tan", "asin",
+             "acos", "atan", "tanh", "ceil", "floor"}
 
 
 _PY = {"add": lambda a, b: a + b, "sub": lambda a, b: a - b, "mul": lambda a, b: a * b,
@@ -156,7 +159,8 @@ class Sym:
 
     # -- conversions: only what keeps the value a double ---------------------------------------
     def __float__(self):
-        raise TraceError("float() of a traced value outside a traced module")
+        raise TraceError("float() of a traced value outside a traced module (a math function "
+                         "imported by name, 'from math import sin'? write math.sin)")
 
     def __int__(self):
         if _STACK and _STACK[-1].hooks.get("dispatch"):
@@ -172,7 +176,10 @@ class Sym:
     def __floordiv__(self, o):
         raise TraceError("// of a traced value is not traced")
 
-    __rfloordiv__ = __mod__ = __rmod__ = __floordiv__
+    def __mod__(self, o):
+        raise TraceError("% of a traced value is not traced (math.fmod is)")
+
+    __rfloordiv__, __rmod__ = __floordiv__, __mod__
 
     # -- formatting inside messages (ParameterError): a placeholder the C code fills in --------
     def __format__(self, spec):
@@ -328,6 +335,10 @@ class Tracer:
         if skey in self.assumed:
             return self.assumed[skey]
         k = len(self.choices)
+        if k >= MAX_DECISIONS:
+            raise TraceError(f"{self.name}: more than {MAX_DECISIONS} decisions on one path: a "
+                             f"loop whose end depends on a traced value (loop a fixed number "
+                             f"of times, or step with advance_to)")
         index = self.forced[k] if k < len(self.forced) else 0
         self.choices.append((index, len(options)))
         self.path.append((len(self.events), key, options, index, skey))

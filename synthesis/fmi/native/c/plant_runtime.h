@@ -126,6 +126,19 @@ static inline double py_pow(double a, double b, int *err)
     return r;
 }
 
+/* math.fmod(a, b): the C library's fmod, a for a finite a and an infinite b, and an error where
+   the result is NaN from numbers (b == 0 or an infinite a) */
+static inline double py_fmod(double a, double b, int *err)
+{
+    double r;
+    if (isinf(b) && isfinite(a))
+        return a;
+    r = fmod(a, b);
+    if (isnan(r) && !isnan(a) && !isnan(b))
+        *err = 1;
+    return r;
+}
+
 /* math.ceil / math.floor (an integer in Python: an error for a non-finite value) */
 static inline double py_ceil(double x, int *err)
 {
