@@ -38,6 +38,13 @@ __all__ = ["RunLoop", "run_synthesis", "RunDirError", "NETWORK_OPERATOR", "metho
            "archive_state", "load_archive"]
 
 
+#: Why a run ended (``summary.json``'s ``ended_by``) and how the summary says it.
+END_REASONS = {"flights": "the flight budget ({limit}) was spent",
+               "seconds": "the wall-time budget ({limit}) ran out",
+               "generations": "the generation limit ({limit}) was reached",
+               "signal": "a signal stopped it"}
+
+
 class RunLoop:
     """Ask, evaluate, tell, archive -- until the budget is spent (see the module docstring).
 
@@ -75,16 +82,33 @@ class RunLoop:
         self.stop_after = stop_after
         self.on_phase, self._phase = on_phase, None
         self.interrupted = False
+        self.ended_by: str | None = None
         self._t0 = time.monotonic()
         self._gen0 = method.generation
 
     def spent(self) -> bool:
-        """Whether a budget is used up (checked only at the method's boundaries)."""
+        """Whether a budget is used up (checked only at the method's boundaries); which one
+        goes to :attr:`ended_by` (:data:`END_REASONS`)."""
         if self.flights_budget and self.flights >= self.flights_budget:
-            return True
-        if self.seconds and time.monotonic() - self._t0 >= self.seconds:
-            return True
-        return self.method.finished()
+            self.ended_by = "flights"
+        elif self.seconds and time.monotonic() - self._t0 >= self.seconds:
+            self.ended_by = "seconds"
+        elif self.method.finished():
+            self.ended_by = getattr(self.method, "end_reason", "generations")
+        return self.ended_by is not None
+
+    def end_fields(self, generations: int | None = None) -> dict:
+        """The summary's account of why the run ended: ``ended_by`` (a key of
+        :data:`END_REASONS`), the sentence saying it and the flights left of the budget."""
+        why = self.ended_by or "signal"
+        limit = {"flights": f"{self.flights_budget} flights",
+                 "seconds": f"{self.seconds:g} s",
+                 "generations": f"{generations} generations"}.get(why, "")
+        left = max(self.flights_budget - self.flights, 0) if self.flights_budget else None
+        text = END_REASONS.get(why, why).format(limit=limit)
+        if left:
+            text += f", {left} of the {self.flights_budget} flights left"
+        return {"ended_by": why, "ended_because": text, "flights_left": left}
 
     def step(self) -> None:
         """One ask / evaluate / tell, the candidates offered to the archive."""
@@ -369,7 +393,8 @@ def _run_fields(loop: RunLoop, evaluator, elapsed: float, method: str, out, curv
                 checkpoints: int) -> dict:
     """The summary's fields about the run itself: counts, rates, failures, the curve."""
     m = loop.method
-    return {"method": method, "seconds": elapsed, "simulated": evaluator.simulated,
+    return {**loop.end_fields(getattr(m, "generations", None)),
+            "method": method, "seconds": elapsed, "simulated": evaluator.simulated,
             "flights": loop.flights, "failures": evaluator.failures,
             "first_failure": evaluator.first_error,
             "evaluations_per_second": evaluator.simulated / max(elapsed, 1e-9),
