@@ -304,7 +304,9 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
              f"{'worker' if evaluator.workers == 1 else 'workers'})")
     if st:
-        evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)))
+        evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)),
+                          folder.journaled())
+    evaluator.journal = folder.journal       # a stop loses only the chunk in flight
     checkpoints = _Checkpoints(folder, evaluator, curve)
     bar = (_Progress(problem, method, problem.budget.flights, problem.budget.generations, sim0,
                      search.generation) if progress else None)
@@ -320,6 +322,7 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
             bar.close()
     t_search = time.perf_counter() - t0
     checkpoints.save(loop)             # the search is done: a resume goes straight to the report
+    evaluator.journal = None
     if loop.interrupted:
         evaluator.close()
         return {"interrupted": True, "generation": search.generation,

@@ -1,0 +1,107 @@
+"""A stop is a stop wherever it lands, and loses only the flights in progress.
+
+Oracles: the uninterrupted run of the same seed (same Pareto set, byte for byte), the count of
+laws the backend flew (an interrupted run plus its resume fly exactly the laws of one run:
+nothing flown before the stop is flown again), and the signal semantics of
+``synthesis.run.signals`` (a stop raised in the program's own code, never inside an FMU's).
+"""
+from __future__ import annotations
+
+import os
+import signal
+import time
+
+import pytest
+
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.run import backends, evaluation
+from descent_fmus.synthesis.run.loop import run_synthesis
+from descent_fmus.synthesis.run.signals import RECHECK_SECONDS, RunInterrupted, graceful_signals
+
+# a small S1 whose basic solution's CMA-ES asks 24 laws a generation, flown 4 at a time
+SMALL = dict(population=16, crossovers=4, lchr=4, epoch=2, generations=2, seed=3,
+             refine_basis=72, refine_evals=24, refine_popsize=24, flights=160)
+
+
+_FLY = backends.InProcess.fly
+
+
+class _Counted:
+    """InProcess.fly counting the laws it flies; raises a stop before the ``stop_at``-th."""
+
+    def __init__(self, monkeypatch, stop_at=None):
+        self.flown, self.stop_at = 0, stop_at
+        real = _FLY
+
+        def fly(backend, laws):
+            if self.stop_at is not None and self.flown + len(laws) > self.stop_at:
+                raise RunInterrupted(signal.SIGTERM)
+            self.flown += len(laws)
+            return real(backend, laws)
+        monkeypatch.setattr(backends.InProcess, "fly", fly)
+
+
+def _run(problem, out, fmu_dir, resume=False):
+    return run_synthesis(problem, out, fmu_dir, workers=1, progress=False, export=False,
+                         reference=False, resume=resume)
+
+
+@pytest.mark.slow            # three small runs: ~10 s, 25 s on a busy machine
+def test_a_stop_inside_a_cma_generation_loses_only_the_chunk_in_flight(fmu_dir, tmp_path,
+                                                                      monkeypatch):
+    monkeypatch.setattr(evaluation, "CHUNK_SECONDS", 0.0)       # chunks of 4 laws
+    problem = get_problem("reentry").tuned(**SMALL)
+    ref = _Counted(monkeypatch)
+    whole = _run(problem, tmp_path / "ref", fmu_dir)
+    # stopped in the middle of the basis CMA-ES's second generation (16 laws of the initial
+    # population, 24 of the first generation, 8 of the second)
+    cut = _Counted(monkeypatch, stop_at=16 + 24 + 8)
+    with pytest.raises(RunInterrupted):
+        _run(problem, tmp_path / "run", fmu_dir)
+    assert 16 + 24 < cut.flown <= 48 and (tmp_path / "run" / "journal.jsonl").exists()
+    rest = _Counted(monkeypatch)
+    done = _run(problem, tmp_path / "run", fmu_dir, resume=True)
+    assert (tmp_path / "run" / "pareto.csv").read_bytes() == \
+        (tmp_path / "ref" / "pareto.csv").read_bytes()
+    assert done["flights"] == whole["flights"]
+    # nothing flown before the stop was flown again
+    assert cut.flown + rest.flown == ref.flown
+    assert not (tmp_path / "run" / "journal.jsonl").exists()    # the last checkpoint covers it
+
+
+def test_a_signal_inside_an_fmus_python_code_is_raised_after_the_call():
+    # a signal that lands while a pythonfmu slave's method runs (Python code reached through
+    # an FMI call) must not raise there: it is raised once the method has returned
+    from pythonfmu.fmi2slave import Fmi2Slave
+
+    class Slave(Fmi2Slave):
+        def do_step(self, t, dt):
+            os.kill(os.getpid(), signal.SIGTERM)
+            t0 = time.monotonic()
+            try:
+                while time.monotonic() - t0 < 10 * RECHECK_SECONDS:
+                    pass                        # Python code: the handler runs in here
+            except BaseException as exc:        # what pythonfmu would report as an FMU error
+                self.raised = exc
+            return True
+
+    slave = object.__new__(Slave)                # no FMU instance needed: only the frames
+    slave.raised = None
+    with graceful_signals():
+        with pytest.raises(RunInterrupted) as stop:
+            assert slave.do_step(0.0, 1.0)
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 1.0:     # the program's own code: raised here
+                pass
+    assert slave.raised is None and stop.value.signum == signal.SIGTERM
+    assert time.monotonic() - t0 < 0.5
+
+
+def test_a_signal_in_the_programs_own_code_is_raised_at_once():
+    t0 = time.monotonic()
+    with graceful_signals():
+        with pytest.raises(RunInterrupted):
+            os.kill(os.getpid(), signal.SIGINT)
+            while time.monotonic() - t0 < 1.0:
+                pass
+    assert time.monotonic() - t0 < 0.1
