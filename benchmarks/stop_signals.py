@@ -1,14 +1,21 @@
-"""Benchmark: signals sent at random moments of a run's refinement phase always end it as a stop.
+"""Benchmark: signals sent at random moments always end a run as a stop, never as an FMU error.
 
-Starts ``descent-fmus synthesize reentry`` (a small recipe, ``--workers 1``: the FMUs -- the
-pythonfmu controller among them -- run in the CLI's own process, and the end of the basic
-solution's search flies the refined law again for the input scaling), waits for the line
-announcing the refinement, sends SIGTERM or SIGINT (alternately) a random 0.05-0.6 s later and
-counts how each run ended: 143/130 with its one line is a stop; 2 (an FMU error) or a negative
-code (a crash) is what issue 40 measured before the fix.  Prints the counts and, with
-``--json``, them as JSON.
+Two scenes, 50 signals each by default (SIGTERM and SIGINT alternately):
 
-    python benchmarks/stop_signals.py [--runs 50] [--fmus DIR] [--seed 1]
+* ``--scene run`` -- ``descent-fmus synthesize reentry`` (a small recipe, ``--workers 1``: the
+  FMUs run in the CLI's own process; the end of the basic solution's search flies the refined
+  law again for the input scaling), the signal a random 0.05-0.6 s after the line announcing
+  the refinement;
+* ``--scene fmu-calls`` -- a process flying the reentry closed loop (both FMUs pythonfmu: most of
+  a flight is their Python code) over and over through ``ClosedLoop.run`` inside
+  ``graceful_signals()`` and no critical section, the signal a random 0.05-0.6 s after its first
+  flight: the stop must still come out of the program's code.  ``--unsafe`` switches off the
+  deferral out of an FMU's code (the handler before issue 40) to show what it prevents.
+
+Each run's end is counted: 143/130 with its one line (and, for ``run``, a valid checkpoint) is a
+stop; 2 is an FMU error, a negative code a crash.  Prints the counts (``--json``: as JSON).
+
+    python benchmarks/stop_signals.py [--scene run|fmu-calls] [--runs 50] [--unsafe] [--seed 1]
 """
 from __future__ import annotations
 
@@ -60,13 +67,57 @@ def one_run(out: Path, fmus, sig: int, delay: float) -> tuple:
     return proc.returncode, lines[-1] if lines else "", valid
 
 
+def fmu_calls_child(unsafe: bool) -> int:
+    """The ``fmu-calls`` scene's process: flights until a signal; its exit code says how the
+    signal came out (128 + signal: a stop; 2: an FMU error)."""
+    from descent_fmus.synthesis.fmi.closed_loop import FMUError
+    from descent_fmus.synthesis.run import signals
+    from descent_fmus.synthesis.systems.reentry.flight import load_loop, scenario_params
+    from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
+    from descent_fmus.synthesis.systems.reentry.wiring import plant_values
+    if unsafe:
+        signals._inside_fmu = lambda frame: False
+    loop = load_loop()
+    start, law = plant_values(scenario_params("default")), paper_basic_law().start_values()
+    try:
+        with signals.graceful_signals():
+            loop.run(start, law)
+            print("ready", flush=True)
+            while True:
+                loop.run(start, law)
+    except signals.RunInterrupted as exc:
+        print(f"interrupted by {exc.signal_name}", file=sys.stderr)
+        return exc.exit_code
+    except FMUError as exc:
+        print(f"FMU error: {exc}", file=sys.stderr)
+        return 2
+
+
+def one_child(sig: int, delay: float, unsafe: bool) -> tuple:
+    """``(exit code, last line of stderr, True)`` of one ``fmu-calls`` process."""
+    cmd = [sys.executable, __file__, "--child"] + (["--unsafe"] if unsafe else [])
+    proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True, start_new_session=True)
+    proc.stdout.readline()
+    time.sleep(delay)
+    os.killpg(proc.pid, sig)
+    _, err = proc.communicate(timeout=60)
+    lines = err.strip().splitlines()
+    return proc.returncode, lines[-1] if lines else "", True
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=50)
     ap.add_argument("--fmus", type=Path, default=None)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--scene", choices=("run", "fmu-calls"), default="run")
+    ap.add_argument("--unsafe", action="store_true")
+    ap.add_argument("--child", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
+    if args.child:
+        return fmu_calls_child(args.unsafe)
     rng = random.Random(args.seed)
     codes: collections.Counter = collections.Counter()
     bad = []
@@ -74,7 +125,9 @@ def main(argv=None) -> int:
         for k in range(args.runs):
             sig = (signal.SIGTERM, signal.SIGINT)[k % 2]
             delay = rng.uniform(0.05, 0.6)
-            code, last, valid = one_run(Path(tmp) / f"run{k}", args.fmus, sig, delay)
+            code, last, valid = (one_run(Path(tmp) / f"run{k}", args.fmus, sig, delay)
+                                 if args.scene == "run" else
+                                 one_child(sig, delay, args.unsafe))
             stop = code == 128 + sig and "interrupted by" in last and valid
             codes["stop" if stop else f"exit {code}"] += 1
             if not stop:
@@ -82,7 +135,8 @@ def main(argv=None) -> int:
                             "exit": code, "last line": last, "checkpoint valid": valid})
             print(f"run {k + 1}/{args.runs}: {signal.Signals(sig).name} after {delay:.2f} s "
                   f"-> exit {code}{'' if stop else ' NOT A STOP: ' + last}", file=sys.stderr)
-    result = {"runs": args.runs, "outcomes": dict(codes), "not_a_stop": bad}
+    result = {"scene": args.scene, "unsafe": args.unsafe, "runs": args.runs,
+              "outcomes": dict(codes), "not_a_stop": bad}
     if args.json:
         print(json.dumps(result, indent=1))
     else:

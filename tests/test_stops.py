@@ -7,8 +7,10 @@ nothing flown before the stop is flown again), and the signal semantics of
 """
 from __future__ import annotations
 
+import io
 import os
 import signal
+import sys
 import time
 
 import pytest
@@ -105,3 +107,51 @@ def test_a_signal_in_the_programs_own_code_is_raised_at_once():
             while time.monotonic() - t0 < 1.0:
                 pass
     assert time.monotonic() - t0 < 0.1
+
+
+def test_the_resume_hint_repeats_the_program_as_launched(monkeypatch, tmp_path):
+    from descent_fmus.synthesis.cli.main import launched_as
+    script = tmp_path / "bin" / "descent-fmus"
+    script.parent.mkdir()
+    script.write_text("#!/bin/sh\n")
+    script.chmod(0o755)
+    args = ["synthesize", "reentry", "--out", "runs/x"]
+    monkeypatch.setattr(sys, "argv", [str(script), *args])
+    monkeypatch.setattr(sys, "orig_argv", ["/usr/bin/python3", str(script), *args])
+    monkeypatch.setenv("PATH", str(tmp_path / "elsewhere"))
+    assert launched_as() == str(script)                 # typed as a path: the same path
+    monkeypatch.setenv("PATH", str(script.parent))
+    assert launched_as() == "descent-fmus"              # found on the PATH: its name
+    monkeypatch.setattr(sys, "argv", ["/site/descent_fmus/synthesis/cli/main.py", *args])
+    monkeypatch.setattr(sys, "orig_argv", [".venv/bin/python", "-m",
+                                           "descent_fmus.synthesis.cli.main", *args])
+    assert launched_as() == ".venv/bin/python -m descent_fmus.synthesis.cli.main"
+
+
+class _Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+@pytest.mark.parametrize("stream", [io.StringIO, _Terminal], ids=["log file", "terminal"])
+def test_a_waiting_phase_shows_its_clock(stream, monkeypatch):
+    # oracle: the documented output of synthesis.run.progress -- plain lines only in a log, a
+    # status line rewritten in place on a terminal, within a second of the phase's start
+    from descent_fmus.synthesis.run import progress
+    monkeypatch.setattr(progress, "PLAIN_SECONDS", 0.3)
+    out = stream()
+    console = progress.Console("reentry", stream=out)
+    console.say("computing the problem's reference")
+    time.sleep(1.0)
+    console.close()
+    text = out.getvalue()
+    assert text.startswith("descent-fmus synthesize reentry: computing the problem's reference\n")
+    if stream is _Terminal:
+        assert "\rdescent-fmus synthesize reentry: computing the problem's reference ... " in text
+    else:
+        assert "\r" not in text and "\x1b" not in text
+        assert "descent-fmus synthesize reentry: still computing the problem's reference (" \
+            in text
+    quiet = io.StringIO()
+    progress.Console("reentry", enabled=False, stream=quiet).say("anything")
+    assert quiet.getvalue() == ""

@@ -168,6 +168,8 @@ class Evaluator:
         #: ``journal([(fingerprint, Outcome), ...])``, called after every chunk of new flights
         #: (None: batches are flown whole, nothing journaled); a synthesis run's folder
         self.journal = None
+        #: ``on_chunk(n)`` after every journaled chunk of ``n`` flights (the run's progress)
+        self.on_chunk = None
         self._journaled: dict = {}                  # fingerprint -> Outcome a stopped run flew
         self._rate = 0.0                            # laws per second of the last chunk
         Evaluator._open.add(self)
@@ -258,6 +260,8 @@ class Evaluator:
             for i, r in zip(part, got):
                 results[i] = r
             self.journal([(todo[i][0], r[0]) for i, r in zip(part, got) if r[0] is not None])
+            if self.on_chunk is not None:
+                self.on_chunk(len(part))
         return results
 
     def _known_behaviour(self, todo: list) -> list:
