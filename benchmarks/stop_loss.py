@@ -6,7 +6,7 @@ checkpoint and the journal); resumed.  Prints the wall and CPU seconds of each a
 ``interrupted + resume - uninterrupted`` (CPU seconds: less sensitive to a shared machine's
 load than wall time; both include the resume's start-up), and checks that the resumed Pareto
 set equals the uninterrupted one.  ``--no-journal`` makes the resume ignore the journal of the
-flights after the last checkpoint (the behaviour before issue 40: they are flown again).
+flights after the last checkpoint (the behaviour before the journal: they are flown again).
 
     python benchmarks/stop_loss.py reentry --flights 3000 [--at 0.5] [--workers 1]
     python benchmarks/stop_loss.py lunar-descent --flights 6000 --workers 2

@@ -10,7 +10,7 @@ Two scenes, 50 signals each by default (SIGTERM and SIGINT alternately):
   a flight is their Python code) over and over through ``ClosedLoop.run`` inside
   ``graceful_signals()`` and no critical section, the signal a random 0.05-0.6 s after its first
   flight: the stop must still come out of the program's code.  ``--unsafe`` switches off the
-  deferral out of an FMU's code (the handler before issue 40) to show what it prevents.
+  deferral out of an FMU's code (the handler before the deferral) to show what it prevents.
 
 Each run's end is counted: 143/130 with its one line (and, for ``run``, a valid checkpoint) is a
 stop; 2 is an FMU error, a negative code a crash.  Prints the counts (``--json``: as JSON).
