@@ -225,11 +225,9 @@ class _CFunctions:
 
 
 def not_an_output(md, name: str) -> str:
-    """The error for a stop condition on ``name``, not an output of the FMU ``md``: its
-    outputs listed."""
-    outs = sorted(v.name for v in md.modelVariables if v.causality == "output")
-    return (f"{md.modelName}: stop condition variable {name!r} is not an output (its outputs: "
-            f"{', '.join(outs) or 'none'})")
+    """The error for a stop condition on ``name``, not an output of ``md``: its outputs."""
+    outs = ", ".join(sorted(v.name for v in md.modelVariables if v.causality == "output"))
+    return f"{md.modelName}: stop condition {name!r} is not an output (its outputs: {outs})"
 
 
 class _Component:
