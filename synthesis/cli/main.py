@@ -199,6 +199,7 @@ def entry() -> None:
     exit status that would have reported a good run as a crash.
     """
     last_words: list = []
+    _first_word(sys.argv[1:])
     try:
         code = main(last_words=last_words)
     except SystemExit as exc:          # argparse: --help, usage errors
@@ -208,6 +209,14 @@ def entry() -> None:
     # a stopped run's one line comes last, after whatever a library's exit handler prints
     # (a Dask cluster stopped while it started reports its state there)
     exit_without_teardown(code, last_words)
+
+
+def _first_word(argv) -> None:
+    """A synthesis on a terminal says it started before its imports and checks (a second or
+    more on a busy machine): progress within a second of the command."""
+    quiet = {"--quiet", "--json", "--help", "-h"}
+    if argv[:1] == ["synthesize"] and not quiet & set(argv) and sys.stderr.isatty():
+        print("descent-fmus synthesize: starting", file=sys.stderr, flush=True)
 
 
 def exit_without_teardown(code, last_words=()) -> None:
