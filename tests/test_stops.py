@@ -155,3 +155,18 @@ def test_a_waiting_phase_shows_its_clock(stream, monkeypatch):
     quiet = io.StringIO()
     progress.Console("reentry", enabled=False, stream=quiet).say("anything")
     assert quiet.getvalue() == ""
+
+
+def test_the_journal_skips_a_line_a_stop_cut_short(tmp_path):
+    # oracle: what was written -- two whole lines read back exactly, the cut one dropped
+    from descent_fmus.synthesis.problems.contract import Outcome
+    from descent_fmus.synthesis.run.folder import JOURNAL, RunFolder
+    folder = RunFolder(tmp_path)
+    a, b = Outcome((0.1, 2.5), 0.0, {"landed": True}), Outcome((1e300, -3.0), 0.25, {})
+    folder.journal([(b"\x01" * 16, a), (b"\x02" * 16, b)])
+    with open(tmp_path / JOURNAL, "a") as fh:
+        fh.write('{"k": "0303030303030303030303030303030303", "f": [0.')     # cut short
+    got = folder.journaled()
+    assert [k for k, _ in got] == [b"\x01" * 16, b"\x02" * 16]
+    assert [(o.f, o.cv, o.extras) for _, o in got] == [(a.f, a.cv, a.extras),
+                                                       (b.f, b.cv, b.extras)]
