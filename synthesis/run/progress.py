@@ -9,8 +9,9 @@
   workers, computing the problem's reference, exporting laws) shows how long it has been going,
   so a user never faces a silent terminal.
 
-On a terminal the bar is tqdm's and the waiting phases tick in place (a status line rewritten
-every :data:`TICK_SECONDS`).  Written to a file or a pipe -- a batch job's log -- there are only
+On a terminal the bar is tqdm's, redrawn every :data:`TICK_SECONDS` even between its updates
+(its clock runs while workers start or a long batch flies), and the waiting phases tick in place
+(a status line rewritten as often).  Written to a file or a pipe -- a batch job's log -- there are only
 plain lines: the progress every :data:`PLAIN_SECONDS` and at the end, a waiting phase's
 "still ..." every :data:`PLAIN_SECONDS` (before: tqdm's carriage returns made ~1 800 lines of
 one run's log, with the phase lines glued to them).
@@ -75,6 +76,9 @@ class Console:
         last = time.monotonic()
         while not self._stop.wait(TICK_SECONDS):
             with self._lock:
+                if self._progress is not None:
+                    self._progress.tick()        # the bar's clock runs between its updates
+                    continue
                 if self._wait is None:
                     continue
                 text, since = self._wait
@@ -134,12 +138,25 @@ class _Progress:
                                           ("gen", generations, min(gen, generations)))
         self.desc, self.n, self.post = desc, initial, {}
         self.bar, self._last = None, time.monotonic()
+        console._start_clock()
         if console.terminal:
             from tqdm import tqdm
             self.bar = tqdm(total=self.total, initial=initial, unit=self.unit, desc=desc,
                             dynamic_ncols=True, file=console.stream)
 
+    def tick(self) -> None:
+        """Between updates (the clock's thread, under the console's lock): tqdm's elapsed time
+        on a terminal; off it, the plain line when it is due."""
+        if self.bar is not None:
+            self.bar.refresh()
+        elif time.monotonic() - self._last >= PLAIN_SECONDS:
+            self._line()
+
     def update(self, loop, rate: float) -> None:
+        with self.console._lock:
+            self._update(loop, rate)
+
+    def _update(self, loop, rate: float) -> None:
         m = loop.method
         self.n = (min(loop.flights, self.flights_budget) if self.flights_budget
                   else min(m.generation, self.generations))
@@ -161,6 +178,10 @@ class _Progress:
         """``flights`` more flown inside a batch (between the method's boundaries)."""
         if self.unit != "flight":
             return
+        with self.console._lock:
+            self._advance(flights)
+
+    def _advance(self, flights: int) -> None:
         self.n = min(self.n + flights, self.total)
         if self.bar is not None:
             self.bar.n = self.n
