@@ -66,12 +66,12 @@ def hopper(hopper_dir):
 FILE_SIZES = [
     # (old text, new text, the key the message names, the maximum it states)
     ("population = 48", "population = 100000000", "ga.population", "5000"),
-    ("generations = 30", "generations = 100000000", "budget.generations", "10000000"),
+    ("seed = 1\n", "seed = 1\ngenerations = 100000000\n", "budget.generations", "10000000"),
     ("crossovers = 12", "crossovers = 10000000", "ga.crossovers", "10000"),
     ("samples = 6", "samples = 1000000000", "initial_states.samples", str(MAX_STATES)),
     ("step = 0.1", "step = 1e-9", "simulation", str(MAX_STEPS)),
     ("size = 14", "size = 1000000000", "basic_law.size", "1..32"),
-    ("[ga]", "[budget]\nflights = 100000000000\n[ga]", "budget.flights", "10000000"),
+    ("seed = 1\n", "seed = 1\nflights = 100000000000\n", "budget.flights", "10000000"),
     ("[ga]", "[refine]\nlaws = 100000\n[ga]", "refine.laws", "64"),
     ("lchr = 6", "lchr = 100000", "ga.lchr", "256"),
 ]

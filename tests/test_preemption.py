@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import os
+import shlex
 import shutil
 import signal
 import subprocess
@@ -68,7 +69,8 @@ def test_no_process_outlives_a_stopped_run(fmu_dir, tmp_path, sig):
     assert proc.returncode == 128 + sig, stderr
     line = stderr.strip().splitlines()[-1]
     assert f"interrupted by {signal.Signals(sig).name}: generation" in line
-    assert "continue with: descent-fmus synthesize --problem" in line
+    # the hint repeats the program as it was launched (here: python -m ...)
+    assert f"continue with: {shlex.join(cli()[:3])} synthesize --problem" in line
     assert line.endswith("--resume")
     ck = json.loads((out / "checkpoint.json").read_text())    # valid: it parses, it resumes
     assert ck["generation"] >= 2 and not list(out.glob("*.tmp"))

@@ -106,6 +106,8 @@ def test_a_registered_method_runs_checkpoints_and_resumes(ladder, fmu_dir, tmp_p
     assert code == 0 and full["method"] == "ladder"
     assert full["generations"] == 4 and full["evaluations"] == 8 and full["flights"] == 8
     assert full["simulated"] == 9            # the report flies the problem's basic law too
+    # why it ended: its 4 generations, 20 000 - 8 flights of the recipe's budget left
+    assert (full["ended_by"], full["flights_left"]) == ("generations", 19992)
     done = run_synthesis(problem, tmp_path / "b", fmu_dir, method="ladder", resume=True,
                          progress=False, export=False, reference=False)
     assert (tmp_path / "a" / "pareto.csv").read_text() == \
@@ -113,6 +115,27 @@ def test_a_registered_method_runs_checkpoints_and_resumes(ladder, fmu_dir, tmp_p
     assert done["generations"] == 4 and done["flights"] == 8
     # what the method reported with a law reaches pareto.json
     assert all("rung" in r for r in json.loads((tmp_path / "a" / "pareto.json").read_text()))
+
+
+def test_the_loop_says_which_limit_ended_it():
+    # oracle: the toy method's arithmetic -- two new laws a generation, each one flight
+    from descent_fmus.synthesis.run.evaluation import Evaluation
+    from descent_fmus.synthesis.run.loop import RunLoop
+
+    def evaluate(laws):
+        return Evaluation(np.zeros((len(laws), 2)), np.zeros(len(laws)), [{}] * len(laws),
+                          len(laws))
+    gens = RunLoop(Ladder(None, 3), evaluate, flights=100).run()
+    assert gens.end_fields(3) == {
+        "ended_by": "generations", "flights_left": 94,
+        "ended_because": "the generation limit (3 generations) was reached, 94 of the 100 "
+                         "flights left"}
+    spent = RunLoop(Ladder(None, 50), evaluate, flights=7).run()     # 8 >= 7 after 4 gens
+    assert spent.method.generation == 4 and spent.end_fields(50) == {
+        "ended_by": "flights", "flights_left": 0,
+        "ended_because": "the flight budget (7 flights) was spent"}
+    clock = RunLoop(Ladder(None, 10 ** 9), evaluate, seconds=1e-9).run()
+    assert clock.method.generation == 0 and clock.end_fields()["ended_by"] == "seconds"
 
 
 def test_an_objective_reads_the_initial_state_it_was_flown_from(fmu_dir, tmp_path):

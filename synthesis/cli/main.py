@@ -142,8 +142,9 @@ def main(argv=None, last_words: list | None = None) -> int:
         return 2
     except RunInterrupted as exc:
         # a run stopped on SIGTERM/SIGINT: where it stands and how to continue, one line
+        program = launched_as() if argv is None else "descent-fmus"
         argv = list(sys.argv[1:] if argv is None else argv)
-        how = (" -- continue with: descent-fmus " + shlex.join(
+        how = (f" -- continue with: {program} " + shlex.join(
             argv + ([] if "--resume" in argv else ["--resume"])))
         line = f"descent-fmus {name}: {exc}" + (how if getattr(exc, "resumable", False) else "")
         if last_words is not None:
@@ -154,6 +155,28 @@ def main(argv=None, last_words: list | None = None) -> int:
     except KeyboardInterrupt:
         print(f"descent-fmus {name}: interrupted", file=sys.stderr)
         return 130
+
+
+def launched_as() -> str:
+    """The program as the user launched it, for a hint that repeats the command: ``python -m
+    descent_fmus.synthesis.cli.main`` as typed; the script's name where the shell finds that
+    same script on the PATH (``descent-fmus``); else its path as typed
+    (``.venv/bin/descent-fmus``)."""
+    import shutil
+    args = sys.argv[1:]
+    orig = list(getattr(sys, "orig_argv", None) or [])
+    prefix = orig[:len(orig) - len(args)] if args and orig[-len(args):] == args else []
+    if len(prefix) >= 3 and prefix[-2] == "-m":
+        return shlex.join(prefix)
+    script = sys.argv[0] or "descent-fmus"
+    name = os.path.basename(script)
+    found = shutil.which(name)
+    try:
+        if found and os.path.samefile(found, script):
+            return name
+    except OSError:
+        pass
+    return shlex.quote(script)
 
 
 def _interruption(exc, kind):
@@ -179,6 +202,7 @@ def entry() -> None:
     exit status that would have reported a good run as a crash.
     """
     last_words: list = []
+    _first_word(sys.argv[1:])
     try:
         code = main(last_words=last_words)
     except SystemExit as exc:          # argparse: --help, usage errors
@@ -188,6 +212,14 @@ def entry() -> None:
     # a stopped run's one line comes last, after whatever a library's exit handler prints
     # (a Dask cluster stopped while it started reports its state there)
     exit_without_teardown(code, last_words)
+
+
+def _first_word(argv) -> None:
+    """A synthesis on a terminal says it started before its imports and checks (a second or
+    more on a busy machine): progress within a second of the command."""
+    quiet = {"--quiet", "--json", "--help", "-h"}
+    if argv[:1] == ["synthesize"] and not quiet & set(argv) and sys.stderr.isatty():
+        print("descent-fmus synthesize: starting", file=sys.stderr, flush=True)
 
 
 def exit_without_teardown(code, last_words=()) -> None:

@@ -220,6 +220,11 @@ def _summary_lines(problem, args, summary) -> list:
              f"{summary['failures']} failed), {summary['pareto_size']} Pareto laws",
              f"  results in {args.out}: pareto.csv, pareto.json, pareto.png, summary.json"
              + (", laws/<k>/" if not args.no_export else "")]
+    if summary.get("ended_because"):       # which limit ended the run, and what was left
+        hint = (" (a larger --generations uses them)"
+                if summary["ended_by"] == "generations" and summary.get("flights_left")
+                else "")
+        lines.append(f"  ended: {summary['ended_because']}{hint}")
     if summary.get("first_failure"):       # failed candidates were penalised: the first reason
         lines.append(f"  first failed evaluation: {summary['first_failure']}")
     feas = summary.get("feasibility")

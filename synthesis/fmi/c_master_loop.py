@@ -26,7 +26,8 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
+from descent_fmus.synthesis.fmi.closed_loop import (ClosedLoopResult, FMUError, Wiring,
+                                                    not_an_output)
 from descent_fmus.synthesis.fmi.declared import declared_starts
 from descent_fmus.synthesis.fmi.native_loop import Layouts, _as_dict
 
@@ -192,8 +193,7 @@ class CMasterLoop:
         if w.stop is not None:
             sv = p.var(w.stop.output)
             if sv.causality != "output":
-                raise KeyError(f"{p.md.modelName}: stop condition variable {w.stop.output!r} "
-                               f"is not an output")
+                raise KeyError(not_an_output(p.md, w.stop.output))
             stop_type, stop_vr = STOP_TYPES.get(sv.type, 1), sv.valueReference
             stop_op, stop_value, check = STOP_OPS[w.stop.op], w.stop.value, w.stop.check_every
         if self._dll.dm_wire(self._m, len(w.to_controller), y, x, len(w.to_plant), u, pu,

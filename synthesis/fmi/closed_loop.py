@@ -224,6 +224,12 @@ class _CFunctions:
         return getattr(self._dll, name)
 
 
+def not_an_output(md, name: str) -> str:
+    """The error for a stop condition on ``name``, not an output of ``md``: its outputs."""
+    outs = ", ".join(sorted(v.name for v in md.modelVariables if v.causality == "output"))
+    return f"{md.modelName}: stop condition {name!r} is not an output (its outputs: {outs})"
+
+
 class _Component:
     """One FMU instance with name -> (type, value reference) look-up and set helpers."""
 
@@ -326,8 +332,7 @@ class ClosedLoop:
         if stop is not None:
             sv = p.var(stop.output)
             if sv.causality != "output":
-                raise KeyError(f"{p.md.modelName}: stop condition variable {stop.output!r} is "
-                               f"not an output")
+                raise KeyError(not_an_output(p.md, stop.output))
             self._stop_vr = (ctypes.c_uint * 1)(sv.valueReference)
             self._stop_type = sv.type
         self._stop_buf = ((ctypes.c_double if self._stop_type == "Real" else ctypes.c_int)

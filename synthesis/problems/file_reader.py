@@ -14,6 +14,39 @@ class ProblemFileError(ValueError):
     """A problem file is malformed; the message names the file, the key and the problem."""
 
 
+#: What to write for a table a problem file lacks: its keys (the first ones required) and a
+#: one-line example (the "missing" errors say both).
+TABLE_HINTS = {
+    "problem": ("name (description)", 'name = "hopper"'),
+    "plant": ("fmu (parameters)", 'fmu = "Hopper.fmu"'),
+    "controller": ("inputs, outputs (fmu, scaling)",
+                   'inputs = [{ output = "h", scale = 0.1 }]  outputs = [{ input = "throttle", '
+                   'min = 0.0, max = 1.0 }]'),
+    "simulation": ("step, stop_time (stop, path)",
+                   'step = 0.1  stop_time = 30.0  stop = { output = "h", op = "<=", '
+                   'value = 0.0 }'),
+    "initial_states": ("states, or box and samples (sampler, seed)",
+                       'states = [{ h0 = 10.0, v0 = -1.0 }]'),
+    "basic_law": ("gains, bias, size (a linear law); or file; or psi, q, outputs",
+                  'gains = [[-1.5, -0.5]]  bias = [0.324]  size = 14'),
+    "objectives": ("name, flight (over_states, unmet_stop_penalty, penalty); one [[objectives]] "
+                   "table each", 'name = "miss"  flight = "abs(final(v))"  over_states = "max"'),
+    "constraints": ("name, flight, sense, bound (over_states, scale); one [[constraints]] "
+                    "table each",
+                    'name = "peak"  flight = "max(abs(v))"  sense = "<="  bound = 2.0'),
+}
+
+
+def missing_table(key: str) -> str:
+    """The message for a missing table ``key``: what to write, in one line."""
+    hint = TABLE_HINTS.get(key)
+    if hint is None:
+        return "missing"
+    keys, example = hint
+    head = f"[[{key}]]" if key in ("objectives", "constraints") else f"[{key}]"
+    return f"missing; add a {head} table with {keys}, e.g. {head} {example}"
+
+
 class Reader:
     """Reads one file, raising ProblemFileError(file: key: problem)."""
 
@@ -27,7 +60,7 @@ class Reader:
         v = data.get(key.split(".")[-1]) if isinstance(data, dict) else None
         if v is None:
             if required:
-                raise self.error(key, "missing")
+                raise self.error(key, missing_table(key))
             return {}
         if not isinstance(v, dict):
             raise self.error(key, f"must be a table, got {type(v).__name__}")
@@ -37,6 +70,8 @@ class Reader:
         """``(key[k], table)`` for every table of the non-empty list ``d[last part of key]``
         (at most ``most`` of them)."""
         v = d.get(key.split(".")[-1])
+        if v is None and key in TABLE_HINTS:
+            raise self.error(key, missing_table(key))
         if not isinstance(v, list) or not v:
             raise self.error(key, "must be a non-empty list of tables")
         if len(v) > most:

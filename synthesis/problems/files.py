@@ -305,7 +305,8 @@ def _simulation_table(rd: Reader, data, plant: PlantInfo) -> tuple:
         so = rd.string(st, "simulation.stop", "output")
         if so not in plant.outputs:
             raise rd.error("simulation.stop.output", f"{so!r} is not an output of "
-                                                     f"{plant.md.modelName}")
+                                                     f"{plant.md.modelName} (its outputs: "
+                                                     f"{', '.join(sorted(plant.outputs))})")
         op = rd.string(st, "simulation.stop", "op")
         if op not in ("<=", ">=", "!="):
             raise rd.error("simulation.stop.op", f"must be '<=', '>=' or '!=', got {op!r}")

@@ -18,6 +18,12 @@ business (:mod:`synthesis.run.backends`: in-process, local processes, Dask); the
   of the run's checkpoint);
 * a failing candidate (an FMU error, a worker that dies) is retried once, then given the
   problem's penalty -- never a crash, never a NaN;
+* with a :attr:`~Evaluator.journal` (a synthesis run's folder) a batch of new laws is flown in
+  chunks of about :data:`CHUNK_SECONDS`, each chunk's outcomes handed to the journal as they
+  come: a run stopped in the middle of a long batch (a CMA-ES generation of thousands of laws
+  after IPOP restarts, six basis searches at once) loses only the chunk in flight, and its
+  resume takes the journaled outcomes (:meth:`~Evaluator.restore`) instead of flying those
+  laws again -- counted, cached and judged exactly as the flights they stand for;
 * a failure that hits a whole batch is no candidate's fault (a broken FMU, a wrong wiring,
   workers that cannot load the FMUs): with ``fail_loudly`` the evaluator raises
   :class:`SystematicFailure` with the first error instead of penalising.
@@ -26,6 +32,7 @@ from __future__ import annotations
 
 import hashlib
 import struct
+import time
 import weakref
 from collections import OrderedDict
 from dataclasses import dataclass
@@ -44,6 +51,10 @@ __all__ = ["Evaluator", "Evaluation", "SchedulerError", "SystematicFailure", "ch
 
 #: Outcomes kept in the evaluator's cache (the most recently used; a few hundred bytes each).
 CACHE_SIZE = 100_000
+#: [choice] With a journal, a batch is flown in chunks of about this many seconds (at the rate
+#: measured on the batches before): what a stop loses, against a wait for the slowest worker
+#: per chunk (negligible at seconds per chunk).
+CHUNK_SECONDS = 2.0
 
 
 class SystematicFailure(RuntimeError):
@@ -154,6 +165,13 @@ class Evaluator:
         self.first_error: str | None = None
         self.fail_loudly = fail_loudly
         self._judged = 0
+        #: ``journal([(fingerprint, Outcome), ...])``, called after every chunk of new flights
+        #: (None: batches are flown whole, nothing journaled); a synthesis run's folder
+        self.journal = None
+        #: ``on_chunk(n)`` after every journaled chunk of ``n`` flights (the run's progress)
+        self.on_chunk = None
+        self._journaled: dict = {}                  # fingerprint -> Outcome a stopped run flew
+        self._rate = 0.0                            # laws per second of the last chunk
         Evaluator._open.add(self)
 
     @property
@@ -190,7 +208,7 @@ class Evaluator:
         todo = self._known_behaviour(todo)
         first = 0
         if todo:
-            results = self.backend.fly([law for _, law, _ in todo])
+            results = self._fly(todo)
             retry = [i for i, (o, _) in enumerate(results) if o is None]
             if retry:   # retried once (a dead worker or a transient FMU error) ...
                 for i, r in zip(retry, self.backend.fly([todo[i][1] for i in retry])):
@@ -219,6 +237,33 @@ class Evaluator:
         return Evaluation(F, np.array([o.cv for o in rows], float), [o.extras for o in rows],
                           first)
 
+    def _fly(self, todo: list) -> list:
+        """The backend's results for the laws of ``todo`` (see :attr:`journal`): the outcomes
+        a stopped run journaled, the rest flown in chunks, each chunk journaled."""
+        if self.journal is None:
+            return self.backend.fly([law for _, law, _ in todo])
+        results: list = [None] * len(todo)
+        rest = []
+        for i, (k, _, _) in enumerate(todo):
+            known = self._journaled.pop(k, None)
+            if known is not None:
+                results[i] = (known, None)
+            else:
+                rest.append(i)
+        while rest:
+            n = max(4 * self.workers, int(CHUNK_SECONDS * self._rate)) if self._rate else \
+                4 * self.workers
+            part, rest = rest[:n], rest[n:]
+            t0 = time.perf_counter()
+            got = self.backend.fly([todo[i][1] for i in part])
+            self._rate = len(part) / max(time.perf_counter() - t0, 1e-9)
+            for i, r in zip(part, got):
+                results[i] = r
+            self.journal([(todo[i][0], r[0]) for i, r in zip(part, got) if r[0] is not None])
+            if self.on_chunk is not None:
+                self.on_chunk(len(part))
+        return results
+
     def _known_behaviour(self, todo: list) -> list:
         """``todo`` without the laws equivalent to a law flown before (they take its outcome);
         the behaviour keys of the laws to fly come back with them."""
@@ -244,13 +289,16 @@ class Evaluator:
         while len(self.behaviour) > CACHE_SIZE:
             self.behaviour.popitem(last=False)
 
-    def restore(self, fingerprints, behaviour=()) -> None:
+    def restore(self, fingerprints, behaviour=(), journaled=()) -> None:
         """What a resumed run had flown before its checkpoint: the laws' fingerprints (not new
-        flights again) and the outcomes by behaviour (``(key, Outcome)`` in flight order)."""
+        flights again) and the outcomes by behaviour (``(key, Outcome)`` in flight order); and
+        what it flew after it, ``(fingerprint, Outcome)`` from the journal: taken instead of
+        flying those laws again (see :attr:`journal`)."""
         self.flown.update(fingerprints)
         for b, outcome in behaviour:
             self._remember_behaviour(b, outcome)
         self.new_behaviour = []
+        self._journaled.update(journaled)
 
     def take_new(self) -> tuple[list, list]:
         """``(fingerprints, (behaviour key, Outcome) pairs)`` flown since the last call (for the

@@ -40,14 +40,15 @@ class LawFlyer:
         self.fmus = (plant, controller)
         self.loop = None
         self.error = None
-        try:
-            self.loop = problem.runner.load(problem.wiring, plant, controller,
-                                            record=problem.record)
-        except Exception as exc:   # FMUs that do not load: every law fails with that error
-            self.error = f"{type(exc).__name__}: {exc}"
         if not LawFlyer._alive:
             atexit.register(LawFlyer.close_all)
         LawFlyer._alive.add(self)
+        try:
+            with critical():        # instantiating a pythonfmu FMU runs its Python code
+                self.loop = problem.runner.load(problem.wiring, plant, controller,
+                                                record=problem.record)
+        except Exception as exc:   # FMUs that do not load: every law fails with that error
+            self.error = f"{type(exc).__name__}: {exc}"
 
     def fly(self, law) -> Flown:
         """``(Outcome, None)``, or ``(None, error text)`` if an FMU call failed."""

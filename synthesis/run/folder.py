@@ -11,7 +11,12 @@
 * ``behaviour.jsonl`` -- the outcome of the first law flown with each behaviour (the evaluator's
   equivalence test), one JSON line each, appended before each checkpoint (a resumed run gives a
   law equivalent to one flown before the stop that law's outcome, as the uninterrupted run
-  would); the checkpoint's ``behaviour_bytes`` says how much of the file it covers.
+  would); the checkpoint's ``behaviour_bytes`` says how much of the file it covers;
+* ``journal.jsonl`` -- the outcomes of the laws flown since the last checkpoint, one JSON line
+  each, appended after every chunk of flights (:attr:`synthesis.run.evaluation.Evaluator.journal`)
+  and emptied by the next checkpoint: a resumed run takes them instead of flying those laws
+  again, so a stop loses only the chunk in flight, not the generation (a line a stop cut short
+  is skipped).
 """
 from __future__ import annotations
 
@@ -23,10 +28,10 @@ from dataclasses import asdict
 from pathlib import Path
 
 __all__ = ["RunDirError", "RunFolder", "write_json", "run_spec", "RUN_FILE", "CHECKPOINT",
-           "FLOWN", "BEHAVIOUR"]
+           "FLOWN", "BEHAVIOUR", "JOURNAL"]
 
 RUN_FILE, CHECKPOINT, FLOWN = "run.json", "checkpoint.json", "flown.bin"
-BEHAVIOUR = "behaviour.jsonl"
+BEHAVIOUR, JOURNAL = "behaviour.jsonl", "journal.jsonl"
 #: Bytes of a law's fingerprint (:func:`synthesis.run.evaluation.law_key`).
 FINGERPRINT = 16
 
@@ -102,27 +107,44 @@ class RunFolder:
         it covers (``state["behaviour_bytes"]`` is set here)."""
         covered = state["simulated"] - len(new_flown)
         _append(self.path / FLOWN, covered * FINGERPRINT, b"".join(new_flown))
-        lines = "".join(json.dumps({"b": b.hex(), "f": list(o.f), "cv": o.cv,
-                                    "extras": o.extras}, default=_plain) + "\n"
-                        for b, o in new_behaviour)
+        lines = "".join(_line("b", b, o) for b, o in new_behaviour)
         state["behaviour_bytes"] = _append(self.path / BEHAVIOUR,
                                            self._behaviour_bytes, lines.encode())
         write_json(self.checkpoint, state)
         self._behaviour_bytes = state["behaviour_bytes"]
+        (self.path / JOURNAL).unlink(missing_ok=True)     # the checkpoint covers it now
+
+    def journal(self, outcomes) -> None:
+        """Append ``(fingerprint, Outcome)`` pairs flown since the last checkpoint to
+        ``journal.jsonl`` (see the module docstring)."""
+        if outcomes:
+            with open(self.path / JOURNAL, "a") as fh:
+                fh.write("".join(_line("k", k, o) for k, o in outcomes))
+
+    def journaled(self) -> list:
+        """The ``(fingerprint, Outcome)`` pairs of ``journal.jsonl`` (a line cut short by a
+        stop is skipped)."""
+        path = self.path / JOURNAL
+        if not path.exists():
+            return []
+        out = []
+        for text in path.read_text(errors="replace").splitlines():
+            try:
+                out.append(_outcome("k", json.loads(text)))
+            except (ValueError, KeyError, TypeError):
+                continue
+        return out
 
     def behaviour(self, nbytes: int) -> list:
         """The ``(behaviour key, Outcome)`` pairs of the first ``nbytes`` of
         ``behaviour.jsonl`` (what the checkpoint covers)."""
-        from descent_fmus.synthesis.problems.contract import Outcome
         path = self.path / BEHAVIOUR
         data = path.read_bytes()[:nbytes] if path.exists() else b""
         self._behaviour_bytes = nbytes
         try:
             if len(data) != nbytes:
                 raise ValueError("shorter than the checkpoint says")
-            rows = [json.loads(line) for line in data.decode().splitlines()]
-            return [(bytes.fromhex(r["b"]), Outcome(tuple(r["f"]), r["cv"], r["extras"]))
-                    for r in rows]
+            return [_outcome("b", json.loads(line)) for line in data.decode().splitlines()]
         except (ValueError, KeyError, TypeError) as exc:
             raise RunDirError(f"{path} does not hold what the checkpoint covers ({exc}): the "
                               f"run folder was altered") from None
@@ -149,6 +171,18 @@ def _append(path: Path, covered: int, data: bytes) -> int:
             fh.flush()
             os.fsync(fh.fileno())
     return covered + len(data)
+
+
+def _line(name: str, key: bytes, o) -> str:
+    """One JSON line: ``key`` (hex, under ``name``) and the Outcome ``o``."""
+    return json.dumps({name: key.hex(), "f": list(o.f), "cv": o.cv, "extras": o.extras},
+                      default=_plain) + "\n"
+
+
+def _outcome(name: str, r: dict) -> tuple:
+    """``(key, Outcome)`` of a :func:`_line` read back."""
+    from descent_fmus.synthesis.problems.contract import Outcome
+    return bytes.fromhex(r[name]), Outcome(tuple(r["f"]), r["cv"], r["extras"])
 
 
 def _plain(value):

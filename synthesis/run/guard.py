@@ -148,6 +148,7 @@ def guarded(run):
             if not saved and fresh and not resume and (out / "run.json").is_file():
                 (out / "run.json").unlink()       # nothing to resume: the same command restarts
                 (out / "flown.bin").unlink(missing_ok=True)
+                (out / "journal.jsonl").unlink(missing_ok=True)
             if isinstance(exc, RunInterrupted):
                 _remove_partial(out)              # a file the signal cut short
                 exc.where = where or "no generation had finished; nothing to resume"

@@ -15,7 +15,6 @@ systematic failures and full disks end it cleanly (:mod:`synthesis.run.guard`).
 """
 from __future__ import annotations
 
-import sys
 import time
 from pathlib import Path
 from typing import Callable
@@ -31,11 +30,19 @@ from descent_fmus.synthesis.problems.contract import SynthesisProblem
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.run.folder import RunDirError, RunFolder, run_spec, write_json
 from descent_fmus.synthesis.run.guard import guarded
+from descent_fmus.synthesis.run.progress import Console
 from descent_fmus.synthesis.run.report import write_results
 from descent_fmus.synthesis.run.resources import check_memory
 
 __all__ = ["RunLoop", "run_synthesis", "RunDirError", "NETWORK_OPERATOR", "method_names",
            "archive_state", "load_archive"]
+
+
+#: Why a run ended (``summary.json``'s ``ended_by``) and how the summary says it.
+END_REASONS = {"flights": "the flight budget ({limit}) was spent",
+               "seconds": "the wall-time budget ({limit}) ran out",
+               "generations": "the generation limit ({limit}) was reached",
+               "signal": "a signal stopped it"}
 
 
 class RunLoop:
@@ -75,16 +82,33 @@ class RunLoop:
         self.stop_after = stop_after
         self.on_phase, self._phase = on_phase, None
         self.interrupted = False
+        self.ended_by: str | None = None
         self._t0 = time.monotonic()
         self._gen0 = method.generation
 
     def spent(self) -> bool:
-        """Whether a budget is used up (checked only at the method's boundaries)."""
+        """Whether a budget is used up (checked only at the method's boundaries); which one
+        goes to :attr:`ended_by` (:data:`END_REASONS`)."""
         if self.flights_budget and self.flights >= self.flights_budget:
-            return True
-        if self.seconds and time.monotonic() - self._t0 >= self.seconds:
-            return True
-        return self.method.finished()
+            self.ended_by = "flights"
+        elif self.seconds and time.monotonic() - self._t0 >= self.seconds:
+            self.ended_by = "seconds"
+        elif self.method.finished():
+            self.ended_by = getattr(self.method, "end_reason", "generations")
+        return self.ended_by is not None
+
+    def end_fields(self, generations: int | None = None) -> dict:
+        """The summary's account of why the run ended: ``ended_by`` (a key of
+        :data:`END_REASONS`), the sentence saying it and the flights left of the budget."""
+        why = self.ended_by or "signal"
+        limit = {"flights": f"{self.flights_budget} flights",
+                 "seconds": f"{self.seconds:g} s",
+                 "generations": f"{generations} generations"}.get(why, "")
+        left = max(self.flights_budget - self.flights, 0) if self.flights_budget else None
+        text = END_REASONS.get(why, why).format(limit=limit)
+        if left:
+            text += f", {left} of the {self.flights_budget} flights left"
+        return {"ended_by": why, "ended_because": text, "flights_left": left}
 
     def step(self) -> None:
         """One ask / evaluate / tell, the candidates offered to the archive."""
@@ -179,37 +203,6 @@ class _Checkpoints:
 
 
 # -- a synthesis run ------------------------------------------------------------------------------
-class _Progress:
-    """The progress bar of a run (tqdm): flights when the run has a flight budget, else
-    generations; the rate, the front and the problem's headline fields."""
-
-    def __init__(self, problem, method_name, flights_budget, generations, done, gen):
-        from tqdm import tqdm
-        self.problem, self.flights_budget, self.generations = problem, flights_budget, generations
-        unit, total, initial = (("flight", flights_budget, min(done, flights_budget))
-                                if flights_budget else ("gen", generations,
-                                                        min(gen, generations)))
-        desc = (f"synthesize {problem.name}" if method_name == NETWORK_OPERATOR
-                else f"{method_name} {problem.name}")
-        self.bar = tqdm(total=total, initial=initial, unit=unit, desc=desc, dynamic_ncols=True)
-
-    def update(self, loop: RunLoop, rate: float) -> None:
-        m, bar = loop.method, self.bar
-        bar.n = (min(loop.flights, self.flights_budget) if self.flights_budget
-                 else min(m.generation, self.generations))
-        post = dict(m.status(), **{"evals/s": f"{rate:.0f}", "front": len(loop.archive)})
-        if len(loop.archive):
-            F = loop.archive.F
-            for k, n in enumerate(self.problem.objective_names):
-                post[f"min {n}"] = f"{F[:, k].min():.4g}"
-            post.update(self.problem.report.headline(F))
-        bar.set_postfix(post, refresh=False)
-        bar.refresh()
-
-    def close(self) -> None:
-        self.bar.close()
-
-
 def _announce_path(problem, evaluator, announce) -> None:
     """The path the flights take, and where it is not native although it could be, why."""
     announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
@@ -219,19 +212,6 @@ def _announce_path(problem, evaluator, announce) -> None:
         note = missing_twins(problem.wiring, *evaluator.fmus)
         if note:
             announce(note)
-
-
-def _announcer(problem, progress: bool):
-    """``announce(text)``: one line on stderr per phase of the run (nothing with ``progress``
-    off), printed so that it does not break a progress bar."""
-    if not progress:
-        return lambda text: None
-
-    def announce(text: str) -> None:
-        from tqdm import tqdm
-        tqdm.write(f"descent-fmus synthesize {problem.name}: {text}", file=sys.stderr)
-        sys.stderr.flush()
-    return announce
 
 
 def _curve_point(problem, loop: RunLoop) -> tuple | None:
@@ -277,7 +257,18 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     out = Path(out)
     folder = RunFolder(out)
     st = folder.open(run_spec(problem, method), resume) or {}
-    announce = _announcer(problem, progress)
+    console = Console(problem.name, progress)
+    try:
+        return _run(problem, out, fmu_dir, method, workers, scheduler, export, stop_after,
+                    reference, folder, st, console)
+    finally:
+        console.close()
+
+
+def _run(problem, out, fmu_dir, method, workers, scheduler, export, stop_after, reference,
+         folder: RunFolder, st: dict, console) -> dict:
+    """:func:`run_synthesis` once its folder is open (``st``: the checkpoint resumed)."""
+    announce = console.say
     problem, search, scaling, t_scaling = _method(problem, method, fmu_dir, folder, announce)
     archive = load_archive(st["archive"]) if st else ParetoArchive()
     if st:
@@ -286,14 +277,20 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     if scheduler:
         announce("starting a Dask LocalCluster" if scheduler == "local"
                  else f"connecting to the Dask scheduler at {scheduler}")
+    elif workers > 1:
+        announce(f"starting {workers} workers")
     evaluator = Evaluator(problem, fmu_dir, workers=workers, scheduler=scheduler,
                           fail_loudly=True)
     _announce_path(problem, evaluator, announce)
     if st:
-        evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)))
+        evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)),
+                          folder.journaled())
+    evaluator.journal = folder.journal       # a stop loses only the chunk in flight
     checkpoints = _Checkpoints(folder, evaluator, curve)
-    bar = (_Progress(problem, method, problem.budget.flights, problem.budget.generations, sim0,
-                     search.generation) if progress else None)
+    bar = console.bar(problem, f"synthesize {problem.name}" if method == NETWORK_OPERATOR
+                      else f"{method} {problem.name}", problem.budget.flights,
+                      problem.budget.generations, sim0, search.generation)
+    evaluator.on_chunk = bar.advance if bar is not None else None
     t0 = time.perf_counter()
     loop = RunLoop(search, evaluator.evaluate, archive,
                    flights=problem.budget.flights, seconds=problem.budget.seconds,
@@ -302,10 +299,10 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     try:
         loop.run()
     finally:
-        if bar is not None:
-            bar.close()
+        console.end_bar()
     t_search = time.perf_counter() - t0
     checkpoints.save(loop)             # the search is done: a resume goes straight to the report
+    evaluator.journal = evaluator.on_chunk = None
     if loop.interrupted:
         evaluator.close()
         return {"interrupted": True, "generation": search.generation,
@@ -379,7 +376,8 @@ def _run_fields(loop: RunLoop, evaluator, elapsed: float, method: str, out, curv
                 checkpoints: int) -> dict:
     """The summary's fields about the run itself: counts, rates, failures, the curve."""
     m = loop.method
-    return {"method": method, "seconds": elapsed, "simulated": evaluator.simulated,
+    return {**loop.end_fields(getattr(m, "generations", None)),
+            "method": method, "seconds": elapsed, "simulated": evaluator.simulated,
             "flights": loop.flights, "failures": evaluator.failures,
             "first_failure": evaluator.first_error,
             "evaluations_per_second": evaluator.simulated / max(elapsed, 1e-9),

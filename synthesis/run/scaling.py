@@ -83,10 +83,19 @@ def _window(problem, law, plant_fmu, controller_fmu) -> tuple:
     """``(offset, scale, what was derived)`` from flights of ``law`` from every initial state
     (in this process, recorded)."""
     from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
-    with ClosedLoop(problem.wiring, plant_fmu, controller_fmu) as loop:
-        sv = law.start_values()
-        flights = [loop.run(plant_values=s, controller_values=sv, record=True)
-                   for s in problem.initial_states]
+    from descent_fmus.synthesis.run.signals import critical
+    # a stop is raised between the loading and the flights, never inside an FMU's code
+    # (synthesis.run.signals)
+    loop, flights, sv = None, [], law.start_values()
+    try:
+        with critical():
+            loop = ClosedLoop(problem.wiring, plant_fmu, controller_fmu)
+        for s in problem.initial_states:
+            with critical():
+                flights.append(loop.run(plant_values=s, controller_values=sv, record=True))
+    finally:
+        if loop is not None:
+            loop.close()
     offset, scale, points = input_window(law, flights, problem.wiring)
     return offset, scale, {"inputs": list(law.input_names), "offset": offset, "scale": scale,
                            "acting_points": points,

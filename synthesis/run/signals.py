@@ -3,11 +3,20 @@
 Batch systems and container runtimes send SIGTERM before they preempt a job; a user types Ctrl-C
 (SIGINT).  Inside :func:`graceful_signals` such a signal ends the run at once, whatever it is
 doing -- building a population, refining, computing a reference, exporting laws, waiting for
-Dask -- by raising :class:`RunInterrupted` from the handler, except inside a :func:`critical`
-section: there (an in-process flight, where the FMUs' Python code runs in this process and an
-exception thrown into an FMU callback would become an FMU error, not a stop) the signal only
-*requests* the stop, which :func:`check_stop` raises as soon as the section ends (a flight
-takes milliseconds).  A second signal raises at once, critical or not.
+Dask -- by raising :class:`RunInterrupted` from the handler, but never inside an FMU's own code:
+
+* inside a :func:`critical` section (an in-process flight, the loading of FMUs, the flights of
+  the input scaling: code that calls into FMUs) the signal only *requests* the stop, which the
+  section raises as soon as it ends (a flight takes milliseconds);
+* wherever else it lands, the handler looks at the Python stack it interrupted: if that is a
+  pythonfmu FMU's Python code (the FMU's slave object, the pythonfmu package, or a callback an
+  FMU calls -- code reached *through* an FMI call, where an exception becomes an FMU error
+  reported as "Fatal py exception ... RunInterrupted", not a stop) the stop is deferred: a timer
+  (``SIGALRM`` every :data:`RECHECK_SECONDS`) looks again until the FMI call has returned and
+  raises there, in the program's own code.
+
+A second signal raises at once in a critical section's own code; inside an FMU's code only a
+third does (an FMU that never returns can still be stopped).
 
 Worker processes of a local pool call :func:`watch_parent` in their initialiser: they ignore
 SIGINT (the parent handles it and stops them), ask the Linux kernel to send them SIGTERM when
@@ -67,10 +76,58 @@ def check_stop() -> None:
         raise RunInterrupted(_requested[0])
 
 
+#: [choice] How often a stop deferred out of an FMU's code looks again whether the FMI call has
+#: returned [s]: a pythonfmu call takes micro- to milliseconds, so the stop is raised within
+#: about this delay, and the timer costs nothing while no stop is pending.
+RECHECK_SECONDS = 0.02
+#: Callbacks the FMUs call (the loggers): their frames count as the FMU's code (an exception
+#: raised there would be swallowed by ctypes or reported as the FMU's error).
+FMU_CALLBACKS = ("load_slave.<locals>.logger", "printLogMessage")
+
+
+def _inside_fmu(frame) -> bool:
+    """Whether ``frame`` (or a frame below it) is an FMU's own Python code (see the module
+    docstring)."""
+    fmi2slave = sys.modules.get("pythonfmu.fmi2slave")
+    slave = getattr(fmi2slave, "Fmi2Slave", None)
+    package = os.path.dirname(getattr(fmi2slave, "__file__", "") or "") or None
+    while frame is not None:
+        code = frame.f_code
+        if getattr(code, "co_qualname", code.co_name) in FMU_CALLBACKS:
+            return True
+        if package is not None and code.co_filename.startswith(package):
+            return True
+        if slave is not None and "self" in code.co_varnames \
+                and isinstance(frame.f_locals.get("self"), slave):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _arm_recheck() -> None:
+    if threading.current_thread() is threading.main_thread():
+        signal.setitimer(signal.ITIMER_REAL, RECHECK_SECONDS)
+
+
 def _handler(signum, frame):
     _requested.append(signum)
-    if len(_requested) > 1 or not _critical[0]:   # outside a critical section, or asked twice
+    in_fmu = _inside_fmu(frame)
+    if in_fmu and len(_requested) < 3:
+        _arm_recheck()                       # raised once the FMI call has returned
+        return
+    if len(_requested) > 1 or not _critical[0]:   # outside a critical section, or asked again
         raise RunInterrupted(_requested[0])
+
+
+def _recheck(signum, frame):
+    """SIGALRM after a stop deferred out of an FMU's code: raise it now if the FMI call has
+    returned (a critical section raises it itself when it ends)."""
+    if not _requested or (_critical[0] and len(_requested) < 2):
+        return
+    if _inside_fmu(frame):
+        _arm_recheck()
+        return
+    raise RunInterrupted(_requested[0])
 
 
 @contextlib.contextmanager
@@ -96,10 +153,12 @@ def graceful_signals(signals=(signal.SIGTERM, signal.SIGINT)):
         yield
         return
     old = {s: signal.signal(s, _handler) for s in signals}
+    old[signal.SIGALRM] = signal.signal(signal.SIGALRM, _recheck)
     del _requested[:]
     try:
         yield
     finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
         for s, h in old.items():
             signal.signal(s, h)
         del _requested[:]
