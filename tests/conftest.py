@@ -33,11 +33,11 @@ def fmu_dir() -> Path:
 
 @pytest.fixture(scope="session")
 def hopper_dir(tmp_path_factory) -> Path:
-    """The tutorial's plant (``docs/tutorial/hopper.py``) built by pythonfmu, as a user would,
+    """The tutorial's plant (``docs/tutorials/hopper.py``) built by pythonfmu, as a user would,
     beside a copy of its problem file ``hopper.toml`` -- once per session (tests write their
     variants elsewhere or under other names)."""
     import shutil
-    tutorial = ROOT / "docs" / "tutorial"
+    tutorial = ROOT / "docs" / "tutorials"
     d = tmp_path_factory.mktemp("hopper")
     subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f",
                     str(tutorial / "hopper.py"), "-d", str(d)], check=True, capture_output=True)

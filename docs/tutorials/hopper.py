@@ -3,7 +3,7 @@
 This is the "user's own plant" of the README tutorial; it uses only pythonfmu (no descent-fmus),
 as a plant exported from another tool would.  Build it with
 
-    pythonfmu build -f docs/tutorial/hopper.py -d docs/tutorial
+    pythonfmu build -f docs/tutorials/hopper.py -d docs/tutorials
 
 State: altitude h [m], vertical speed v [m/s] (up positive), mass m [kg].  Input: throttle in
 [0, 1] of the engine's maximum thrust F_max [N]; the exhaust speed c [m/s] sets the mass flow.
