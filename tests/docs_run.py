@@ -100,7 +100,7 @@ def scratch_copy(dest: Path, fmu_dir: Path) -> Path:
     return dest
 
 
-def run_page(page: Path, where: Path, env: dict, timeout: float = 1800) -> dict[str, Ran]:
+def run_page(page: Path, where: Path, env: dict, timeout: float = 3600) -> dict[str, Ran]:
     """Every command of ``page`` run in ``where`` by bash, in order, as written except the parts
     :data:`SUBSTITUTED`; {command part: Ran}.  A failing command does not stop the others."""
     results = {}

@@ -95,6 +95,14 @@ def _readme_measured(where: Path, results) -> tuple[dict, dict]:
     return checks, times
 
 
+def _print_durations(capsys, figures, times) -> None:
+    """The quoted durations beside this run's (printed, never asserted: see the docstring)."""
+    with capsys.disabled():
+        print("\n" + "\n".join(f"  {page.name}:{f.line} quotes {f.text} {f.unit} for {f.key}; "
+                               f"this run: {times[f.key]:.1f} s" for page, f in figures
+                               if f.kind == "time"))
+
+
 @pytest.mark.slow
 def test_readme_commands_run_as_written(readme_run):
     where, results, _ = readme_run
@@ -116,10 +124,7 @@ def test_readme_figures_are_what_the_commands_print(readme_run, capsys):
              f"{checks[f.key]:.6g}" for page, f in figures
              if f.kind == "check" and not f.matches(checks[f.key])]
     assert not wrong, "\n".join(wrong)
-    with capsys.disabled():              # durations: printed beside the text, never asserted
-        print("\n" + "\n".join(f"  {page.name}:{f.line} quotes {f.text} {f.unit} for {f.key}; "
-                               f"this run: {times[f.key]:.1f} s" for page, f in figures
-                               if f.kind == "time"))
+    _print_durations(capsys, figures, times)
 
 
 @pytest.mark.slow
@@ -178,8 +183,8 @@ def _numbers_close(shown: str, actual: str) -> bool:
 
 
 @pytest.mark.slow
-def test_tutorial_front_and_flight_are_what_the_run_wrote(tutorial_runs):
-    where, _ = tutorial_runs
+def test_tutorial_front_and_flight_are_what_the_run_wrote(tutorial_runs, capsys):
+    where, runs = tutorial_runs
     page = ROOT / "docs" / "tutorials" / "own_plant.md"
     shown = re.search(r"<!-- output: (\S+) -->\n```\w*\n(.*?)```", page.read_text(), re.S)
     rows = (where / shown[1]).read_text().splitlines()
@@ -190,11 +195,16 @@ def test_tutorial_front_and_flight_are_what_the_run_wrote(tutorial_runs):
             assert _numbers_close(line, wrote), \
                 f"{shown[1]}: the page shows\n{line}\nthe run wrote\n{wrote}"
     checks = _tutorial_measured(where)
+    times = {"hopper.wall": next(r.seconds for c, r in runs[page.name].items()
+                                 if " synthesize " in c)}
     figures = quoted_figures(page)
-    assert {f.key for f in figures} <= set(checks), set(f.key for f in figures) - set(checks)
+    unknown = [f.key for f in figures if f.key not in (checks if f.kind == "check" else times)]
+    assert not unknown, f"markers no run measures: {unknown}"
     wrong = [f"own_plant.md:{f.line}: {f.text} {f.unit} ({f.key}) but the run gives "
-             f"{checks[f.key]:.6g}" for f in figures if not f.matches(checks[f.key])]
+             f"{checks[f.key]:.6g}" for f in figures
+             if f.kind == "check" and not f.matches(checks[f.key])]
     assert not wrong, "\n".join(wrong)
+    _print_durations(capsys, [(page, f) for f in figures], times)
 
 
 def _tutorial_measured(where: Path) -> dict:
@@ -211,7 +221,9 @@ def _tutorial_measured(where: Path) -> dict:
             "hopper.basic_v": s["basic_law"]["v_touchdown"],
             "hopper.t_land": land["time"], "hopper.v_land_mm": land["v"] * 1000,
             "hopper.fuel_used": flight[0]["m"] - land["m"],
-            "hopper.stop_time": flight[-1]["time"]}
+            "hopper.stop_time": flight[-1]["time"],
+            "hopper.file_generations": tomllib.loads(
+                (where / "docs" / "tutorials" / "hopper.toml").read_text())["ga"]["generations"]}
 
 
 # ---- reentry bound: one name for each bound, read from the synthesis' cache -------------------
