@@ -33,12 +33,12 @@ def fmu_dir() -> Path:
 
 @pytest.fixture(scope="session")
 def hopper_dir(tmp_path_factory) -> Path:
-    """The tutorial's plant (``docs/tutorial/hopper.py``) built as the tutorial builds it
+    """The tutorial's plant (``docs/tutorials/hopper.py``) built as the tutorial builds it
     (``descent-fmus build-plant``: ``Hopper.fmu`` and its native twin ``native/Hopper.fmu``),
     beside a copy of its problem file ``hopper.toml`` -- once per session (tests write their
     variants elsewhere or under other names; a copy of ``Hopper.fmu`` alone flies pythonfmu)."""
     import shutil
-    tutorial = ROOT / "docs" / "tutorial"
+    tutorial = ROOT / "docs" / "tutorials"
     d = tmp_path_factory.mktemp("hopper")
     subprocess.run([sys.executable, "-m", "descent_fmus.synthesis.cli.main", "build-plant",
                     str(tutorial / "hopper.py"), "-d", str(d)], check=True, capture_output=True)

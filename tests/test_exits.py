@@ -27,7 +27,7 @@ from descent_fmus.synthesis.problems.limits import MAX_STATES, MAX_STEPS
 from descent_fmus.synthesis.run.resources import MAX_WORKERS
 
 ROOT = Path(__file__).resolve().parent.parent
-TUTORIAL = ROOT / "docs" / "tutorial"
+TUTORIAL = ROOT / "docs" / "tutorials"
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
                                 reason="reads the process table from /proc")
 

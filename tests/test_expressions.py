@@ -27,7 +27,7 @@ from descent_fmus.synthesis.problems.file_functions import FlightExpression
 from descent_fmus.synthesis.problems.files import ProblemFileError, load_problem_file
 
 ROOT = Path(__file__).resolve().parent.parent
-TUTORIAL = ROOT / "docs" / "tutorial"
+TUTORIAL = ROOT / "docs" / "tutorials"
 REENTRY = ROOT / "synthesis" / "systems" / "reentry" / "reentry.toml"
 SIGNALS = {"x", "y", "h", "v", "m", "u1", "status"}
 LAW = (("u1", "u[1]"),)

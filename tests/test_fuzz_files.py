@@ -29,7 +29,7 @@ from descent_fmus.synthesis.problems.contract import SynthesisProblem
 from descent_fmus.synthesis.problems.files import ProblemFileError, load_problem_file
 
 ROOT = Path(__file__).resolve().parent.parent
-TUTORIAL = ROOT / "docs" / "tutorial"
+TUTORIAL = ROOT / "docs" / "tutorials"
 LAW = ROOT / "tests" / "reference" / "reentry_best_law.json"
 #: Peak of traced Python allocations one load may reach [bytes] (a valid load: about 2 MB).
 PEAK = 64 * 2 ** 20

@@ -21,7 +21,7 @@ from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.run.loop import run_synthesis
 
 ROOT = Path(__file__).resolve().parent.parent
-TUTORIAL = ROOT / "docs" / "tutorial"
+TUTORIAL = ROOT / "docs" / "tutorials"
 SMALL = dict(population=16, generations=3, crossovers=6, lchr=4, epoch=2)
 
 

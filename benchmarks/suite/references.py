@@ -38,7 +38,7 @@ SUITE = Path(__file__).resolve().parent
 ROOT = SUITE.parent.parent
 BUILD = SUITE / "build"
 STORED = SUITE / "reference"
-TUTORIAL = ROOT / "docs" / "tutorial"
+TUTORIAL = ROOT / "docs" / "tutorials"
 
 #: plant FMUs the suite builds at run time: model identifier -> the plant file
 PLANT_SOURCES = {"LQPlant": SUITE / "plants" / "lq.py",

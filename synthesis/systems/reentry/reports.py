@@ -1,8 +1,10 @@
 """S1 reentry: what a synthesis run reports -- the best law by each problem's rule, and the
 open-loop bound the nominal problems compare with.
 
-* :class:`ReentryReport` -- best law with miss < 1 km (and < 100 m), ratios to the bound
-  (:func:`bound_reference`, cached in the run folder as :data:`BOUND_FILES`);
+* :class:`ReentryReport` -- best law with miss < 1 km (and < 100 m), ratios to the bound at
+  miss <= 1 km (:func:`bound_reference`, cached in the run folder as :data:`BOUND_FILES`);
+* :func:`bound_programs` -- the two bounds, named :data:`BOUND_NAMES`, computed once per content
+  and kept in the cache folder (``reentry bound`` reads them there);
 * :class:`SensedReport` -- the robust law (:func:`best_row`);
 * :class:`GuidedReport` -- the guided law (:func:`best_guided_row`).
 """
@@ -15,7 +17,13 @@ from descent_fmus.synthesis.problems.contract import Report
 from descent_fmus.synthesis.systems.reentry.objectives import J1_LIMIT, ON_TARGET, TIGHT_MISS
 
 __all__ = ["ReentryReport", "SensedReport", "GuidedReport", "best_row", "best_guided_row",
-           "bound_reference", "open_loop_reference", "BOUND_FILES"]
+           "bound_reference", "bound_programs", "open_loop_reference", "BOUND_FILES",
+           "BOUND_NAMES"]
+
+#: [choice] One name for each bound, in the CLI, the report and the docs (docs/systems/reentry.md,
+#: "The bound"): the best 1 s program that hits Lf exactly, and the one allowed to miss by up to
+#: ON_TARGET -- the reference of the report's ratio (its best law is the best with miss < 1 km).
+BOUND_NAMES = ("bound at zero miss", f"bound at miss <= {ON_TARGET / 1000:g} km")
 
 
 class ReentryReport(Report):
@@ -44,13 +52,22 @@ class ReentryReport(Report):
             if result["best_miss_below_100m"]:
                 result["ratio_100m_to_zero_miss_bound"] = \
                     result["best_miss_below_100m"]["J1"] / zero
-            result["reference"] = {"value": tol, "label": "bound (miss <= 1 km)"}
+            result["reference"] = {"value": tol, "label": BOUND_NAMES[1]}
         return result
 
     def lines(self, summary):
-        return [f"  {key}: {summary[key]}" for key in (
-            "best_miss_below_1km", "best_miss_below_100m", "bound_J1", "bound_J1_zero_miss",
-            "ratio_to_bound", "ratio_100m_to_zero_miss_bound") if key in summary]
+        out = [f"  {key}: {summary[key]}" for key in ("best_miss_below_1km", "best_miss_below_100m")
+               if key in summary]
+        zero, tol = BOUND_NAMES
+        if "bound_J1" in summary:
+            out.append(f"  {tol}: J1 = {summary['bound_J1']:.4f} (the ratio's reference); "
+                       f"{zero}: J1 = {summary['bound_J1_zero_miss']:.4f}")
+        if "ratio_to_bound" in summary:
+            out.append(f"  best law with miss < 1 km: {summary['ratio_to_bound']:.5f} x the {tol}")
+        if "ratio_100m_to_zero_miss_bound" in summary:
+            out.append(f"  best law with miss < 100 m: "
+                       f"{summary['ratio_100m_to_zero_miss_bound']:.5f} x the {zero}")
+        return out
 
 
 #: Files of the cached bounds in a run folder: zero miss, miss <= ON_TARGET.
@@ -74,32 +91,44 @@ def _bound_key() -> str:
     return h.hexdigest()[:20]
 
 
-def bound_reference(out_dir) -> tuple[float, float]:
-    """J1 of the bound at zero miss and at miss <= 1 km (the best programs on the 1 s grid,
-    true-peak load; ~30 s), written as ``open_loop.json`` / ``open_loop_1km.json`` into the run
-    and computed once: kept in the cache folder (:func:`synthesis.paths.cache_dir`) under the
-    content it depends on (the plant's and the bound's code, the entry conditions)."""
-    import shutil
-
+def bound_programs(compute: bool = True):
+    """The best programs on the 1 s grid at zero miss and at miss <= 1 km (true-peak load;
+    :data:`BOUND_NAMES`), computed once (~30 s) and kept in the cache folder
+    (:func:`synthesis.paths.cache_dir`) under the content they depend on (the plant's and the
+    bound's code, the entry conditions).  Returns ``(zero, tol, paths)``: the two
+    :class:`~.bound.Program` and their files in the cache (None where nothing could be written);
+    with ``compute=False``, ``None`` when the cache does not hold them."""
     from descent_fmus.synthesis.paths import cache_dir
     from descent_fmus.synthesis.systems.reentry.bound import Program, reference_bounds
+    cached = [cache_dir() / f"bound-{_bound_key()}" / f for f in BOUND_FILES]
+    try:
+        return (*(Program.load(pth) for pth in cached), cached)
+    except (OSError, ValueError, KeyError):
+        if not compute:
+            return None
+    progs = reference_bounds(ON_TARGET)
+    try:
+        cached[0].parent.mkdir(parents=True, exist_ok=True)
+        for prog, pth in zip(progs, cached):
+            prog.save(pth.with_suffix(".tmp"))
+            pth.with_suffix(".tmp").replace(pth)
+    except OSError:                 # a read-only home: computed again next time
+        cached = [None, None]
+    return (*progs, cached)
+
+
+def bound_reference(out_dir) -> tuple[float, float]:
+    """J1 of the bound at zero miss and at miss <= 1 km (:func:`bound_programs`), written as
+    ``open_loop.json`` / ``open_loop_1km.json`` into the run folder ``out_dir``."""
+    import shutil
+
+    from descent_fmus.synthesis.systems.reentry.bound import Program
     paths = [Path(out_dir) / f for f in BOUND_FILES] if out_dir is not None else []
     if paths and all(pth.exists() for pth in paths):
         return tuple(Program.load(pth).J1 for pth in paths)
-    cached = [cache_dir() / f"bound-{_bound_key()}" / f for f in BOUND_FILES]
-    try:
-        progs = [Program.load(pth) for pth in cached]
-    except (OSError, ValueError, KeyError):
-        progs = reference_bounds(ON_TARGET)
-        try:
-            cached[0].parent.mkdir(parents=True, exist_ok=True)
-            for prog, pth in zip(progs, cached):
-                prog.save(pth.with_suffix(".tmp"))
-                pth.with_suffix(".tmp").replace(pth)
-        except OSError:                 # a read-only home: computed again next time
-            pass
+    *progs, cached = bound_programs()
     for prog, pth, src in zip(progs, paths, cached):
-        if src.exists():
+        if src is not None and src.exists():
             shutil.copyfile(src, pth)
         else:
             prog.save(pth)

@@ -4,7 +4,7 @@ Written once in descent-fmus's model style -- the parameters as a dataclass, the
 as a plain function, an integrator, the FMU class -- so that one command gives both its
 pythonfmu FMU and its native C twin, checked against each other bit for bit:
 
-    descent-fmus build-plant docs/tutorial/hopper.py      # Hopper.fmu + native/Hopper.fmu here
+    descent-fmus build-plant docs/tutorials/hopper.py      # Hopper.fmu + native/Hopper.fmu here
 
 State: altitude h [m], vertical speed v [m/s] (up positive), mass m [kg].  Input: throttle in
 [0, 1] of the engine's maximum thrust F_max [N]; the exhaust speed c [m/s] sets the mass flow.
