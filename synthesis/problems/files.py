@@ -95,8 +95,7 @@ baselines). The format, key by key::
     [baselines]                           # fixed structures for synthesize --method cma-NAME
     linear = { kind = "linear" }          # kind: linear | polynomial (degree) | tanh (hidden)
     cubic = { kind = "polynomial", degree = 3 }
-    # mine = { kind = "file", file = "law.json" }
-    # any kind may give its own inputs' scale = [...] and offset = [...]
+    # mine = { kind = "file", file = "law.json" }   (any kind: its own scale = [...], offset = [...])
     [gp]                # optional: the GP baseline (--method gp): population = 200, tournament = 3
 
 ``generations`` and ``seed`` are also read from ``[ga]`` (older files).  Every error names the
