@@ -190,7 +190,7 @@ def test_a_nan_is_the_problems_penalty(hopper_dir, fmu_dir, tmp_path):
     problem = load_problem_file(_hopper_with(hopper_dir, tmp_path, "max(log(h))"),
                                 fmu_dir=fmu_dir)
     t = np.linspace(0.0, 1.0, 5)
-    r = flight(t, h=t, v=-t, m=100.0 - t)       # log(0) at t = 0: NaN, the objective's penalty
+    r = flight(t, h=t, v=-t, m=100.0 - t, fuel=t)    # log(0) at t = 0: NaN, the penalty
     outcome = problem.evaluate([r])
     assert outcome.f == problem.penalty and outcome.extras["failed"] == "non-finite objectives"
 
