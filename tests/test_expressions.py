@@ -190,7 +190,7 @@ def test_a_nan_is_the_problems_penalty(hopper_dir, fmu_dir, tmp_path):
     problem = load_problem_file(_hopper_with(hopper_dir, tmp_path, "max(log(h))"),
                                 fmu_dir=fmu_dir)
     t = np.linspace(0.0, 1.0, 5)
-    r = flight(t, h=t, v=-t, m=100.0 - t)       # log(0) at t = 0: NaN, the objective's penalty
+    r = flight(t, h=t, v=-t, m=100.0 - t, fuel=t)    # log(0) at t = 0: NaN, the penalty
     outcome = problem.evaluate([r])
     assert outcome.f == problem.penalty and outcome.extras["failed"] == "non-finite objectives"
 
@@ -281,12 +281,24 @@ def test_existing_expressions_bit_for_bit(source, flights, before, oracle):
         assert [float(oracle(r)).hex() for r in flights] == before
 
 
-def test_the_files_objectives_are_the_pinned_ones():
-    # the expressions pinned above are the tutorial's and reentry.toml's objectives
+def test_the_files_objectives_are_the_pinned_ones(hopper_dir, fmu_dir, tmp_path):
+    # the expressions pinned above are the tutorial's and reentry.toml's objectives; the
+    # tutorial's fuel now reads the plant's output fuel = m0 - m: final(fuel) is what the pinned
+    # initial(m) - final(m) computed, bit for bit, on the plant's own flights (oracle: the
+    # problem with the pinned expression, which records m, flown through the pythonfmu FMU)
+    from descent_fmus.synthesis.run.evaluation import Evaluator
     hop = tomllib.loads((TUTORIAL / "hopper.toml").read_text())["objectives"]
     ree = tomllib.loads(REENTRY.read_text())["objectives"]
-    assert [o["flight"] for o in hop] == [BEFORE[0][0], BEFORE[1][0]]
+    assert [o["flight"] for o in hop] == [BEFORE[0][0], "final(fuel)"]
     assert [o["flight"] for o in ree] == [BEFORE[2][0], BEFORE[3][0]]
+    now = load_problem_file(hopper_dir / "hopper.toml", fmu_dir=fmu_dir)
+    then = load_problem_file(_hopper_with(hopper_dir, tmp_path, BEFORE[0][0], BEFORE[1][0]),
+                             fmu_dir=fmu_dir)
+    assert now.record == () and then.record == ("m",)
+    laws = [now.basic(), now.basic().with_q([-12.0, -3.9, 0.32])]
+    with Evaluator(now, fmu_dir) as a, Evaluator(then, fmu_dir) as b:
+        Fa, Fb = a.evaluate(laws).F, b.evaluate(laws).F
+    assert Fa.tobytes() == Fb.tobytes() and (Fa[:, 1] > 0.5).all()
 
 
 # -- pickling ----------------------------------------------------------------------------------
