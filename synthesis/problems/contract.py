@@ -53,7 +53,7 @@ ObjectiveFunction = Callable[[Sequence[ClosedLoopResult]], tuple]
 #: stall it (S1 stalled on a grid of 3.8e-6, S5 on 4.9e-4).
 DEFAULT_Q_BITS = (11, 31, -1024.0, 1024.0)
 
-#: The structure search as it was before the search tuned every promising new form (issue 37):
+#: The structure search as it was measured before its restarts and form tuning existed:
 #: one refined law per epoch, children with their parents' parameters, no restarts.  The
 #: registered S1 and S5 recipes keep it [choice]: their bounds and pinned fronts were measured
 #: with it (``recipe(..., **LAB_SEARCH)``; ``synthesize --refine-forms 0 --basis-q 0
