@@ -1,5 +1,7 @@
-"""The structure search's tuning of new forms: successive halving over candidate forms (flights
-allocated as designed, seeded, resumable), on closed-form toy problems (no FMU)."""
+"""The structure search's own steps, on closed-form toy problems (no FMU): successive halving
+over candidate forms (flights allocated as designed, seeded, resumable), restarts of a stalled
+search (counted as designed, seeded, resumable), and a short run on a double integrator that
+finds a switching law."""
 from __future__ import annotations
 
 import json
