@@ -180,7 +180,9 @@ class Refinement:
         ``budget`` evaluations each (then on until ``patience`` IPOP restarts in a row fail to
         improve, if ``patience``); one seed per member is drawn from ``rng``.  With ``rungs``
         (increasing budgets, the last ``budget``): successive halving -- every search runs to
-        the first rung, the better half (by the target) on to the next, and so on."""
+        the first rung, the better half (by the target) on to the next, and so on; a form
+        not tuned before starts a CMA-ES of its own (the latest search's step and covariance
+        fit another form's gains)."""
         searches = []
         for k, m, key in picks:
             seed = int(rng.integers(0, 2 ** 31 - 1))
@@ -188,7 +190,7 @@ class Refinement:
             q = self.codec.decode(m.bits)
             if old is not None:
                 cma = old[0]
-            elif self.pool:
+            elif self.pool and not (rungs and len(rungs) > 1):
                 cma = next(reversed(self.pool.values()))[0].spawn(q, seed)
             else:
                 cma = self.new_cma(q, seed)

@@ -71,8 +71,8 @@ class GAConfig:
                                   "parameters instead of its parents' (a variation of the "
                                   "structure flown with the tuned parameters)", 0.0, 1.0)
     restart_epochs: int = setting(2, "epochs without a better law by the target after which "
-                                     "every member off the Pareto set gets new random "
-                                     "variations and the basis's parameters (0 = never)",
+                                     "every member off the Pareto set is drawn anew around "
+                                     "the best law (variations and parameters; 0 = never)",
                                   0, 1_000_000)
     equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
                                           "flown before is recognised and not flown again "
