@@ -4,6 +4,7 @@ search (counted as designed, seeded, resumable), and a short run on a double int
 finds a switching law."""
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 
@@ -232,3 +233,16 @@ def test_a_stalled_search_restarts_every_restart_epochs():
     state = json.loads(json.dumps(c.state()))
     d = run(_stall_ga(999, 60)[0].load_state(state), _stalled_objectives(psi0))
     assert np.array_equal(a.F, d.F) and d.stats["restarts"] == 5
+
+
+def test_children_with_the_basis_parameters():
+    # basis_q = 1: every child flies its variations with member 0's parameters (bit for bit);
+    # basis_q = 0: the children's parameters come from their parents' crossover and mutation,
+    # and some differ from member 0's
+    for p, all_basis in ((1.0, True), (0.0, False)):
+        ga, psi0 = _stall_ga(5, 10)
+        ga.cfg = dataclasses.replace(ga.cfg, basis_q=p)
+        ga.tell(_stalled_objectives(psi0)([c.law for c in ga.ask()]))    # initial population
+        children = ga._children()
+        same = [np.array_equal(c.bits, ga.pop[0].bits) for c in children]
+        assert children and all(same) == all_basis
