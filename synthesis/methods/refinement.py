@@ -19,6 +19,7 @@ parameters to fly and which to replace.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -65,6 +66,10 @@ class RefineConfig:
                              "its own seed and the `basis` budget; the best one's law goes on "
                              "(several basins of a multimodal landscape instead of one)",
                           1, 64)
+    forms: int = setting(0, "forms tuned after every epoch by successive halving: the best "
+                            "members by the target with distinct structures each get a short "
+                            "CMA-ES, the better half goes on with twice the evaluations, until "
+                            "one has `evals` (0 = the `laws` best, `evals` each)", 0, 64)
 
     def __post_init__(self):
         check_settings(self, "refine.")
@@ -73,11 +78,30 @@ class RefineConfig:
     def active(self) -> bool:
         return bool(self.basis or self.evals)
 
+    def rungs(self, n: int | None = None) -> list:
+        """The successive-halving budgets per search (cumulative evaluations) for ``n``
+        searches (default ``forms``), the last ``evals``: ``[evals / 2^K, ..., evals / 2,
+        evals]`` with 2^K >= n (one rung ``[evals]`` for one search)."""
+        n = max(self.forms if n is None else n, 1)
+        k = max(0, math.ceil(math.log2(n)))
+        return [max(1, self.evals >> (k - i)) for i in range(k + 1)]
+
+    def epoch_evals(self) -> int:
+        """Evaluations of the refinement after every epoch (at most; searches may stop earlier
+        in a rung)."""
+        if not self.forms:
+            return self.evals * self.laws
+        total, alive, done = 0, self.forms, 0
+        for r in self.rungs():
+            total += alive * (r - done)
+            alive, done = max(1, math.ceil(alive / 2)), r
+        return total
+
     def patience_for(self, left: int | None, epoch_children: int) -> int:
         """The basis refinement's patience: ``basis_patience`` when the flights ``left`` after
         it (None: no flight budget) cannot hold ``STRUCTURE_EPOCHS`` epochs of the structure
         search (``epoch_children`` children and the refinement after each), else 0."""
-        epochs = STRUCTURE_EPOCHS * (epoch_children + self.evals * self.laws)
+        epochs = STRUCTURE_EPOCHS * (epoch_children + self.epoch_evals())
         return self.basis_patience if left is not None and left < epochs else 0
 
 
@@ -95,8 +119,14 @@ class _Search:
     mark: tuple | None = None     # the CMA-ES's best key at its last restart
     restarts: int = 0
     failed: int = 0               # restarts in a row that did not improve on ``mark``
+    cap: int | None = None        # successive halving: the current rung's budget
+    alive: bool = True            # successive halving: not dropped at a rung
 
     def done(self, budget: int) -> bool:
+        if not self.alive:
+            return True
+        if self.cap is not None:
+            return self.evals >= self.cap
         return self.evals >= budget and (self.patience == 0 or self.failed >= self.patience
                                          or self.evals >= PATIENCE_CAP * budget)
 
@@ -131,6 +161,7 @@ class Refinement:
         self.pool: dict = {}          # structure key -> (CMA, bits of its best q) to continue
         self.searches: list[_Search] | None = None
         self.budget = 0
+        self.rungs: list = []         # successive halving: the budgets of the rungs to come
 
     @property
     def active(self) -> bool:
@@ -143,10 +174,15 @@ class Refinement:
                    bounds=(p.lo, p.hi - p.step), x_map=grid, restart_sigma=IPOP_SIGMA,
                    restart_stall=IPOP_STALL)
 
-    def start(self, picks, budget: int, rng: np.random.Generator, patience: int = 0) -> None:
+    def start(self, picks, budget: int, rng: np.random.Generator, patience: int = 0,
+              rungs=None) -> None:
         """Start a refinement of the members ``picks`` (``(index, member, structure key)``),
         ``budget`` evaluations each (then on until ``patience`` IPOP restarts in a row fail to
-        improve, if ``patience``); one seed per member is drawn from ``rng``."""
+        improve, if ``patience``); one seed per member is drawn from ``rng``.  With ``rungs``
+        (increasing budgets, the last ``budget``): successive halving -- every search runs to
+        the first rung, the better half (by the target) on to the next, and so on; a form
+        not tuned before starts a CMA-ES of its own (the latest search's step and covariance
+        fit another form's gains)."""
         searches = []
         for k, m, key in picks:
             seed = int(rng.integers(0, 2 ** 31 - 1))
@@ -154,13 +190,30 @@ class Refinement:
             q = self.codec.decode(m.bits)
             if old is not None:
                 cma = old[0]
-            elif self.pool:
+            elif self.pool and not (rungs and len(rungs) > 1):
                 cma = next(reversed(self.pool.values()))[0].spawn(q, seed)
             else:
                 cma = self.new_cma(q, seed)
             searches.append(_Search(k, cma, 0, m.bits.copy(), m.f.copy(), m.cv, patience,
                                     restarts=cma.restarts))
         self.searches, self.budget = searches, budget
+        rungs = list(rungs or [])
+        self.rungs = rungs[1:] if len(rungs) > 1 and len(searches) > 1 else []
+        for s in searches:
+            s.cap = rungs[0] if self.rungs else None
+
+    def _promote(self) -> bool:
+        """Successive halving at the end of a rung: the better half of the live searches go
+        on to the next rung's budget; False when no rung is left."""
+        live = [s for s in self.searches if s.alive]
+        if not self.rungs or len(live) <= 1:
+            return False
+        live.sort(key=lambda s: self.target.keys(s.best_f[None, :], [s.best_cv])[0])
+        keep = max(1, math.ceil(len(live) / 2))
+        cap = self.rungs.pop(0)
+        for i, s in enumerate(live):
+            s.alive, s.cap = i < keep, cap
+        return True
 
     def ask(self) -> list:
         """``(member index, bits)`` of the next candidates of every search still running."""
@@ -187,7 +240,10 @@ class Refinement:
             s.evals += n
             s.count_restarts(self.cfg.restart_gain)
             i += n
-        return all(s.done(self.budget) for s in self.searches)
+        while all(s.done(self.budget) for s in self.searches):
+            if not self._promote():
+                return True
+        return False
 
     def finish(self, pop, key) -> list:
         """End the refinement: ``(member index, bits, f, cv)`` of the members whose refined
@@ -207,9 +263,9 @@ class Refinement:
                 better.append((s.member, s.best_bits.copy(), s.best_f.copy(), s.best_cv))
                 bits = s.best_bits
             self.pool[key(m)] = (s.cma, bits_text(bits))
-        while len(self.pool) > self.cfg.laws * 4:
+        while len(self.pool) > max(self.cfg.laws, self.cfg.forms) * 4:
             del self.pool[next(iter(self.pool))]
-        self.searches = None
+        self.searches, self.rungs = None, []
         return better
 
     # -- checkpoint -----------------------------------------------------------------------
@@ -223,7 +279,9 @@ class Refinement:
                 "best": [{"b": bits_text(x.best_bits), "f": x.best_f.tolist(), "cv": x.best_cv}
                          for x in s],
                 "patience": [[x.patience, x.mark and list(x.mark), x.restarts, x.failed]
-                             for x in s]}
+                             for x in s],
+                "halving": {"rungs": self.rungs, "caps": [x.cap for x in s],
+                            "alive": [x.alive for x in s]}}
 
     def load_state(self, st, q0) -> None:
         st = st or {}
@@ -239,3 +297,8 @@ class Refinement:
                                  pt[1] and tuple(float(v) for v in pt[1]), pt[2], pt[3])
                          for k, n, c, b, pt in zip(st["members"], st["evals"], st["cma"],
                                                    st["best"], patience)]
+        halving = st.get("halving") or {}
+        self.rungs = list(halving.get("rungs", []))
+        for s, cap, alive in zip(self.searches, halving.get("caps", []),
+                                 halving.get("alive", [])):
+            s.cap, s.alive = cap, alive

@@ -12,19 +12,9 @@ seed => same result; :meth:`VariationalGA.state` is a JSON-serialisable checkpoi
 archive of non-dominated laws belongs to the run loop, the parameter refinement by CMA-ES to
 :class:`~synthesis.methods.refinement.Refinement`.
 
-Departures from the lab algorithm (the authors' Free-Pascal programs), each for a reason:
-
-* the children of a generation are produced first and evaluated as one batch (so a worker pool or
-  a Dask cluster can evaluate them in parallel), then inserted one by one exactly as in the lab
-  algorithm (a child replaces the worst individual, never individual 0, if its ``Lh`` is smaller);
-* among equally bad individuals the most crowded one is replaced (NSGA-II crowding distance),
-  and once the whole population is non-dominated a non-dominated child replaces the most crowded
-  member if it is less crowded itself (the lab rule would freeze the population there), which
-  keeps the front spread; a child whose objectives equal an existing member's is dropped;
-* the epoch normalises the objectives over the current Pareto set, not the whole population, so a
-  few penalised laws (a flight that never reaches hf) do not flatten the normalisation;
-* constraints (a total violation per law) rank before the objectives (constraint-domination);
-* optional parameter refinement by CMA-ES after the initial population and after every epoch.
+Its departures from the lab algorithm (the authors' Free-Pascal programs), each for a reason,
+are listed in docs/methods/network_operator.md; the structure search's own steps (tuning
+promising forms, restarts) are :class:`~synthesis.methods.form_search.FormSearch`.
 
 References
 ----------
@@ -41,6 +31,7 @@ import numpy as np
 from descent_fmus.synthesis.methods.base import Candidate, Method
 from descent_fmus.synthesis.methods.encoding import (GrayCodec, StructureCodec, bits_array,
                                                      bits_text)
+from descent_fmus.synthesis.methods.form_search import FormSearch
 from descent_fmus.synthesis.methods.pareto import (Target, crowding_distance, dominance_counts,
                                                    dominance_matrix)
 from descent_fmus.synthesis.methods.refinement import RefineConfig, Refinement
@@ -76,6 +67,13 @@ class GAConfig:
     basis_rule: str = setting("target", "the epoch's new basis: 'target' (the best law by "
                               "the target) or 'compromise' (nearest the utopia point, the lab's "
                               "rule)", choices=("target", "compromise"))
+    basis_q: float = setting(0.0, "probability that a child takes the basic solution's "
+                                  "parameters instead of its parents' (a variation of the "
+                                  "structure flown with the tuned parameters)", 0.0, 1.0)
+    restart_epochs: int = setting(2, "epochs without a better law by the target after which "
+                                     "every member off the Pareto set is drawn anew around "
+                                     "the best law (variations and parameters; 0 = never)",
+                                  0, 1_000_000)
     equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
                                           "flown before is recognised and not flown again "
                                           "(0 = off)", 0, 256)
@@ -96,7 +94,7 @@ def _default_decode(psi, q):
     return psi, q
 
 
-class VariationalGA(Method):
+class VariationalGA(FormSearch, Method):
     """Multi-objective variational GA (see the module docstring).
 
     Parameters
@@ -156,6 +154,7 @@ class VariationalGA(Method):
         self._epoch_due = False
         self._pending_trim = []
         self.history = []             # per generation: (generation, evaluations, n_front, best)
+        self.stats: dict = {}         # evaluations per phase and how many beat the best law
         self._lchr = config.lchr if structure is not None else 0
         self._pending = ("init", self._initial_members())
         self.rescale = None
@@ -230,6 +229,7 @@ class VariationalGA(Method):
         for m, f, c in zip(members, F, cv):
             m.f, m.cv = f, float(c)
         self._pending = None
+        self._count(phase, members)
         if phase in ("init", "epoch", "rescale"):
             self._new_population(phase, members)
         elif phase == "trim":
@@ -284,12 +284,13 @@ class VariationalGA(Method):
         k = self.rng.integers(0, len(self.pop), self.cfg.ksearch)
         return int(k[np.argmin(self.lh[k])])
 
-    def _mutate(self, m: _Member) -> None:
+    def _mutate(self, m: _Member, bits: bool = True) -> None:
         if self.rng.random() < self.cfg.p_mutation:
             if self._lchr:
                 m.variations[int(self.rng.integers(0, self._lchr))] = \
                     self.structure.random(self.rng)
-            m.bits[int(self.rng.integers(0, self.params.n_bits))] ^= 1
+            if bits:
+                m.bits[int(self.rng.integers(0, self.params.n_bits))] ^= 1
 
     def _children(self) -> list:
         rng, cfg = self.rng, self.cfg
@@ -310,7 +311,11 @@ class VariationalGA(Method):
             for var, bits in ((list(pa.variations), bits1), (list(pb.variations), bits2),
                               (var1, bits1.copy()), (var2, bits2.copy())):
                 child = _Member(list(var), bits.copy())
-                self._mutate(child)
+                if self._lchr and cfg.basis_q and rng.random() < cfg.basis_q:
+                    child.bits = self.pop[0].bits.copy()
+                    self._mutate(child, bits=False)
+                else:
+                    self._mutate(child)
                 children.append(child)
         return children
 
@@ -370,6 +375,8 @@ class VariationalGA(Method):
         self.q0 = self.params.decode(best.bits)
         members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]
         members += [_Member(list(m.variations), m.bits.copy()) for m in self.pop[1:]]
+        if self._stalled(best):
+            self._restart(members, best)
         return members
 
     def _trim_candidates(self) -> list:
@@ -417,17 +424,12 @@ class VariationalGA(Method):
                 else None
             patience = self.refine_cfg.patience_for(left, self.cfg.epoch * 4 * self.cfg.crossovers)
         else:
-            picks, seen = [], set()
-            for k in self.target.order(self.F, self.CV):
-                if len(picks) >= self.refine_cfg.laws:
-                    break
-                key = self._structure_key(self.pop[int(k)])
-                if key not in seen:
-                    seen.add(key)
-                    picks.append(int(k))
+            picks = self._promising(self.refine_cfg.forms or self.refine_cfg.laws)
             budget = self.refine_cfg.evals
+        rungs = self.refine_cfg.rungs(len(picks)) if self.refine_cfg.forms and not basis \
+            else None
         self.refinement.start([(k, self.pop[k], self._structure_key(self.pop[k]))
-                               for k in picks], budget, self.rng, patience)
+                               for k in picks], budget, self.rng, patience, rungs)
 
     def _finish_refine(self) -> None:
         """The refined parameters replace those of the members they started from."""
@@ -471,6 +473,7 @@ class VariationalGA(Method):
             "refine_due": self._refine_due,
             "refine": None if self.refinement is None else self.refinement.state(),
             "template": self._template, "basis_refining": self._basis_refining,
+            "stats": self.stats,
         }
 
     def load_state(self, st: dict) -> "VariationalGA":
@@ -490,6 +493,7 @@ class VariationalGA(Method):
             self.refinement.load_state(st.get("refine"), self.q0)
         self._template = st.get("template")
         self._basis_refining = st.get("basis_refining", False)
+        self.stats = dict(st.get("stats", {}))
         if self._template is not None:
             from descent_fmus.synthesis.methods.law import NetworkOperator
             self.decode = NetworkOperator.from_dict(self._template).with_structure

@@ -42,7 +42,7 @@ from descent_fmus.synthesis.problems.runner import Runner
 
 __all__ = ["Budget", "Constraint", "Outcome", "ProblemOption", "Report", "SynthesisProblem",
            "ObjectiveFunction", "SETTING_GROUPS", "INVALID_VIOLATION", "AGGREGATES",
-           "start_values", "recipe", "DEFAULT_Q_BITS"]
+           "start_values", "recipe", "DEFAULT_Q_BITS", "LAB_SEARCH"]
 
 #: ``objectives(flights) -> (f, extras)``: ``flights`` one ClosedLoopResult per initial state
 #: flown (``flight.start`` its start values), ``f`` the objective vector (finite floats),
@@ -53,6 +53,13 @@ ObjectiveFunction = Callable[[Sequence[ClosedLoopResult]], tuple]
 #: enough for the gains a CMA-ES refinement drives to (S5: 871), fine enough (4.7e-10) not to
 #: stall it (S1 stalled on a grid of 3.8e-6, S5 on 4.9e-4).
 DEFAULT_Q_BITS = (11, 31, -1024.0, 1024.0)
+
+#: The structure search as it was measured before its restarts and form tuning existed:
+#: one refined law per epoch, children with their parents' parameters, no restarts.  The
+#: registered S1 and S5 recipes keep it [choice]: their bounds and pinned fronts were measured
+#: with it (``recipe(..., **LAB_SEARCH)``; ``synthesize --refine-forms 0 --basis-q 0
+#: --restart-epochs 0`` on any problem).
+LAB_SEARCH = {"refine_forms": 0, "basis_q": 0.0, "restart_epochs": 0}
 
 #: Violation of a constraint whose value cannot be computed (never a NaN in a result).
 INVALID_VIOLATION = 1e9

@@ -23,7 +23,8 @@ from descent_fmus.models.integrators import CRASHED, REACHED
 from descent_fmus.models.lunar_descent import T_PLUS, U1_BOUNDS, U2_BOUNDS, DescentParams
 from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.problems.contract import Report, SynthesisProblem, recipe
+from descent_fmus.synthesis.problems.contract import (LAB_SEARCH, Report, SynthesisProblem,
+                                                      recipe)
 
 __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "INITIAL_SET", "initial_states", "per_state",
            "totals", "objectives", "synthesis_basic_law", "basic_law_start_values", "problems",
@@ -209,7 +210,7 @@ class LunarDescentReport(Report):
 #: 2 min on the native twins (measured runs: docs/systems/lunar_descent.md).
 LUNAR_DESCENT_RECIPE = recipe(population=128, generations=1000, crossovers=32, lchr=8, epoch=10,
                               seed=1, flights=54_000, refine_basis=8000, refine_starts=6,
-                              refine_evals=500, refine_basis_patience=0)
+                              refine_evals=500, refine_basis_patience=0, **LAB_SEARCH)
 #: Gray code of the parameters [choice]: 11 + 31 bits over [-1024, 1024) -- the basic law's
 #: gain q8 = 16 sat on the edge of the former [-16, 16) and the refined gains reach hundreds,
 #: and the former grid of 2^-11 held the CMA-ES refinement to J1 ~ 1.8 m where a continuous

@@ -18,7 +18,8 @@ from __future__ import annotations
 
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.methods.pareto import Target
-from descent_fmus.synthesis.problems.contract import ProblemOption, SynthesisProblem, recipe
+from descent_fmus.synthesis.problems.contract import (LAB_SEARCH, ProblemOption,
+                                                      SynthesisProblem, recipe)
 from descent_fmus.synthesis.problems.runner import Race, Runner
 from descent_fmus.synthesis.systems.reentry.guidance import (GUIDED_WIRING, SENSED_WIRING,
                                                              guided_basic_law)
@@ -57,24 +58,27 @@ __all__ = ["problems", "nominal_problems", "set_problems", "REENTRY_RECIPE", "RO
 #: baselines (--method cma-*).
 REENTRY_RECIPE = recipe(population=128, generations=200, crossovers=32, lchr=8, epoch=10,
                         seed=2, refine_evals=2000, refine_laws=1, refine_basis=8000,
-                        refine_basis_patience=0, flights=20_000, basis_rule="target")
+                        refine_basis_patience=0, flights=20_000, basis_rule="target",
+                        **LAB_SEARCH)
 #: The robust variant costs 5 flights per law: smaller population, fewer generations.
 #: (The GA alone, as measured: no flight budget, no CMA-ES refinement, the lab's basis rule.)
 ROBUST_RECIPE = recipe(population=128, generations=150, crossovers=32, lchr=8, epoch=12, seed=1,
-                       flights=0, refine_basis=0, refine_evals=0, basis_rule="compromise")
+                       flights=0, refine_basis=0, refine_evals=0, basis_rule="compromise",
+                       **LAB_SEARCH)
 #: Default budget of the robust problems [choice]: about 20 min with 2 workers on a 2-core
 #: machine (benchmarks/reentry_robust.py measures the evaluation rate); ``flights`` is the
 #: evaluation budget of the CMA-ES baseline (--method cma-polynomial), about what the GA spends.
 SENSED_RECIPE = recipe(population=48, generations=40, crossovers=12, lchr=8, epoch=10, seed=1,
                        refine_evals=150, refine_laws=1, flights=2600, refine_basis=0,
-                       basis_rule="compromise")
+                       basis_rule="compromise", **LAB_SEARCH)
 #: Default budget of ``reentry-guided`` [choice]: a law costs up to 16 flights of ~0.15 s (the
 #: on-board predictions), so the run stops after 600 law evaluations (about 10 min with 2
 #: workers); CMA-ES tunes the basic solution's parameters first (120 evaluations; its shape is
 #: already a good nominal law), then the GA with 80 evaluations of refinement per epoch.
 GUIDED_RECIPE = recipe(population=32, generations=60, crossovers=8, lchr=8, epoch=10, seed=1,
                        refine_evals=80, refine_laws=1, refine_basis=120,
-                       refine_basis_patience=0, flights=600, basis_rule="target")
+                       refine_basis_patience=0, flights=600, basis_rule="target",
+                       **LAB_SEARCH)
 
 #: The single objective of CMA-ES: J1 subject to a miss below 1 km (``reentry``) or below
 #: 100 m (``reentry-100m``).

@@ -1,0 +1,86 @@
+"""The structure search's own steps beside the lab's variational GA (a mixin of
+:class:`~synthesis.methods.variational_ga.VariationalGA`): which forms are promising enough to
+have their parameters tuned (successive halving: :mod:`synthesis.methods.refinement`), when
+the search has stalled and restarts around its best law, and the statistics of a run
+(evaluations per phase, how many beat the best law).  docs/methods/network_operator.md records
+each choice with its measurement.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["FormSearch", "RESTART_GAIN"]
+
+#: [choice] an epoch whose best law beats the best at the last mark by less than this share
+#: counts as a stalled one (``restart_epochs``)
+RESTART_GAIN = 1e-3
+
+
+class FormSearch:
+    """Mixed into the variational GA: uses its ``pop``, ``F``, ``CV``, ``target``, ``cfg``,
+    ``refine_cfg``, ``stats`` and ``_structure_key``."""
+
+    def _count(self, phase: str, members) -> None:
+        """The search's statistics (:attr:`stats`): evaluations per phase, and how many of
+        them beat the population's best law by the target."""
+        st = self.stats
+        st[phase] = st.get(phase, 0) + len(members)
+        if self.target is None or not self.pop:
+            return
+        k = int(self.target.order(self.F, self.CV)[0])
+        best = self.pop[k]
+        wins = sum(self.target.better(m.f, best.f, m.cv, best.cv) for m in members)
+        st[phase + "_better"] = st.get(phase + "_better", 0) + int(wins)
+
+    def _promising(self, n: int) -> list:
+        """The ``n`` best members by the target with distinct structures; with ``forms``, also
+        distinct objectives (two members with equal objectives most often fly one law) and,
+        after the best member, only forms whose parameters were not tuned before (new
+        forms)."""
+        picks, seen, values = [], set(), set()
+        forms = self.refine_cfg.forms
+        for k in self.target.order(self.F, self.CV):
+            if len(picks) >= n:
+                break
+            m = self.pop[int(k)]
+            key, f = self._structure_key(m), (m.cv, *m.f.tolist())
+            if key in seen or (forms and (f in values or (picks and key in
+                                                         self.refinement.pool))):
+                continue
+            seen.add(key)
+            values.add(f)
+            picks.append(int(k))
+        return picks
+
+    def _stalled(self, best) -> bool:
+        """Whether the best law by the target has not improved for ``restart_epochs`` epochs
+        (then counted from 0 again)."""
+        if not self.cfg.restart_epochs or self.target is None:
+            return False
+        key = self.target.keys(best.f[None, :], [best.cv])[0]
+        mark = self.stats.get("restart_mark")
+        if mark is None or key[0] < mark[0] or (key[0] == mark[0] and key[1] < mark[1]
+                                                  - RESTART_GAIN * abs(mark[1])):
+            self.stats["restart_mark"], self.stats["stall"] = list(key), 0
+            return False
+        self.stats["stall"] = self.stats.get("stall", 0) + 1
+        if self.stats["stall"] < self.cfg.restart_epochs:
+            return False
+        self.stats["stall"] = 0
+        return True
+
+    def _restart(self, members, best) -> None:
+        """A restart of the structure search around the best law: every member off the Pareto
+        set gets new random variations and parameters drawn as the initial population's (half
+        at random, half the basis's with a few bits flipped)."""
+        rng, n_bits = self.rng, self.params.n_bits
+        for i, (m, lh) in enumerate(zip(members[1:], self.lh[1:])):
+            if lh > 0:
+                m.variations = [self.structure.random(rng) for _ in range(self._lchr)]
+                if i % 2:
+                    m.bits = rng.integers(0, 2, n_bits).astype(np.uint8)
+                else:
+                    m.bits = best.bits.copy()
+                    for k in rng.integers(0, n_bits, 1 + int(rng.integers(0, 4))):
+                        m.bits[k] ^= 1
+        self.stats["restarts"] = self.stats.get("restarts", 0) + 1

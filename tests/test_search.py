@@ -1,0 +1,248 @@
+"""The structure search's own steps, on closed-form toy problems (no FMU): successive halving
+over candidate forms (flights allocated as designed, seeded, resumable), restarts of a stalled
+search (counted as designed, seeded, resumable), and a short run on a double integrator that
+finds a switching law."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+from descent_fmus.synthesis.methods.encoding import GrayCodec
+from descent_fmus.synthesis.methods.pareto import Target
+from descent_fmus.synthesis.methods.refinement import RefineConfig, Refinement
+from descent_fmus.synthesis.methods.variational_ga import _Member
+
+CODEC = GrayCodec(2, 2, 30, -2.0, 2.0)
+CENTRE = np.array([0.3, -0.2])
+
+
+def _form_value(k: int, q) -> float:
+    """Form k's value at parameters q: a bowl around CENTRE plus the form's own floor 0.1 k
+    (closed form: form 0 is the best once tuned, its minimum 0)."""
+    return float(np.sum((np.asarray(q) - CENTRE) ** 2) + 0.1 * k)
+
+
+def _forms(n: int) -> list:
+    """n forms, all starting at q = (1, 1); the worse forms first, so the initial order is not
+    the tuned one."""
+    members = []
+    for k in range(n):
+        m = _Member([], CODEC.encode([1.0, 1.0]))
+        m.f, m.cv = np.array([_form_value(n - 1 - k, [1.0, 1.0])]), 0.0
+        members.append(m)
+    return members
+
+
+def _halving(cfg: RefineConfig, n: int, seed: int, stop_after: int | None = None,
+             state=None):
+    """Run one successive-halving refinement of n forms; returns (evaluations per form, best
+    value per form, the refinement's state after ``stop_after`` tells, or None)."""
+    ref = Refinement(CODEC, cfg, Target(0))
+    members = _forms(n)
+    if state is None:
+        ref.start([(k, m, str(k)) for k, m in enumerate(members)], cfg.evals,
+                  np.random.default_rng(seed), 0, cfg.rungs(n))
+    else:
+        ref.load_state(json.loads(state), [1.0, 1.0])
+    evals = [0] * n
+    tells, saved = 0, None
+    while True:
+        asked = ref.ask()
+        rows = []
+        for k, bits in asked:
+            m = _Member([], bits)
+            m.f, m.cv = np.array([_form_value(n - 1 - k, CODEC.decode(bits))]), 0.0
+            evals[k] += 1
+            rows.append(m)
+        done = ref.tell(rows)
+        tells += 1
+        if stop_after is not None and tells == stop_after:
+            saved = json.dumps(ref.state())
+        if done:
+            break
+    best = {k: float(f[0]) for k, _, f, _ in ref.finish(members, lambda m: "x")}
+    return evals, best, saved
+
+
+def test_rungs_and_the_designed_budget():
+    # 8 forms, 200 evaluations for the winner: rungs of 25, 50, 100, 200 evaluations (each the
+    # double of the one before); 8 x 25 + 4 x 25 + 2 x 50 + 1 x 100 = 500 in all (hand count)
+    cfg = RefineConfig(basis=0, evals=200, forms=8)
+    assert cfg.rungs() == [25, 50, 100, 200]
+    assert cfg.epoch_evals() == 500
+    assert cfg.rungs(3) == [50, 100, 200]      # 3 forms: two halvings (3 -> 2 -> 1)
+    assert cfg.rungs(1) == [200]
+    assert RefineConfig(basis=0, evals=200, laws=2).epoch_evals() == 400   # forms=0: as before
+
+
+def test_successive_halving_allocates_flights_by_promise():
+    cfg = RefineConfig(basis=0, evals=200, forms=8)
+    evals, best, _ = _halving(cfg, 8, seed=4)
+    # CMA-ES in 2 dimensions asks 6 candidates a generation (pycma: 4 + 3 ln 2), so a rung of
+    # b evaluations ends at the first multiple of 6 >= b: 30, 54, 102, 204 per form in the rungs
+    # reached; 4 forms stop at rung 1, 2 at rung 2, 1 at rung 3, 1 has the whole budget
+    assert sorted(evals) == [30] * 4 + [54] * 2 + [102] + [204]
+    # the form that is best once tuned (form 0, the LAST member: it starts worst) got the whole
+    # budget, and its bowl is tuned to 1e-4 of its minimum 0 (closed form)
+    assert evals[7] == 204
+    assert best[7] == pytest.approx(0.0, abs=1e-4)
+
+
+def test_successive_halving_is_seeded_and_resumes():
+    cfg = RefineConfig(basis=0, evals=200, forms=8)
+    a = _halving(cfg, 8, seed=11)
+    assert _halving(cfg, 8, seed=11)[:2] == a[:2]
+    # stopped after 12 tells (inside the second rung), restored from its JSON state: the rest
+    # of the run is the same
+    _, _, state = _halving(cfg, 8, seed=11, stop_after=12)
+    evals, best, _ = _halving(cfg, 8, seed=999, state=state)
+    rest = [a[0][k] - n for k, n in enumerate(evals)]
+    assert all(r >= 0 for r in rest) and best == a[1]
+
+
+# -- a short run on a double integrator finds a switching law ------------------------------------
+DI_STEP, DI_BALL, DI_STOP = 0.05, 0.1, 8.0
+DI_STARTS = [(1.0, 0.0), (-1.0, 0.0), (2.0, 1.0), (-2.0, -1.0)]
+
+
+def _time_to_origin(law, x: float, v: float) -> float:
+    """Time a law takes to bring dx/dt = v, dv/dt = u (|u| <= 1, u held over DI_STEP) into
+    the ball |(x, v)| <= DI_BALL, the crossing interpolated within the step; DI_STOP + 10 if
+    never."""
+    t, r0 = 0.0, math.hypot(x, v)
+    while t < DI_STOP - 1e-9:
+        if r0 <= DI_BALL:
+            return t
+        u = law((x, v))[0]
+        x, v, t = x + v * DI_STEP + 0.5 * u * DI_STEP ** 2, v + u * DI_STEP, t + DI_STEP
+        r1 = math.hypot(x, v)
+        if r1 <= DI_BALL:
+            return t - DI_STEP * (DI_BALL - r1) / (r0 - r1)
+        r0 = r1
+    return DI_STOP + 10.0
+
+
+def _di_objectives(laws) -> np.ndarray:
+    F = []
+    for law in laws:
+        ts = [_time_to_origin(law, *s) for s in DI_STARTS]
+        F.append((sum(ts) / len(ts), max(ts)))
+    return np.array(F)
+
+
+def _t_star(x: float, v: float) -> float:
+    """The closed-form minimum time to the origin (Bryson & Ho, sec. 7.2)."""
+    s = x + v * abs(v) / 2
+    return v + 2 * math.sqrt(x + v * v / 2) if s > 0 else -v + 2 * math.sqrt(-x + v * v / 2)
+
+
+@pytest.mark.slow
+def test_short_run_on_a_double_integrator_finds_a_switching_law():
+    from scipy.optimize import minimize
+    from descent_fmus.synthesis.methods.law import NetworkOperator
+    from descent_fmus.synthesis.methods.variational_ga import (PAPER_BINARY, PAPER_UNARY,
+                                                               GAConfig, VariationalGA)
+    from descent_fmus.synthesis.methods.encoding import StructureCodec
+    from descent_fmus.synthesis.methods.pareto import ParetoArchive
+    from descent_fmus.synthesis.run.evaluation import Evaluation
+    from descent_fmus.synthesis.run.loop import RunLoop
+    basic = NetworkOperator.linear([[-1.0, -1.5]], bounds=[(-1.0, 1.0)], size=12)
+    structure = StructureCodec(basic.size, basic.nx + len(basic.q), PAPER_UNARY, PAPER_BINARY)
+    ga = VariationalGA(GrayCodec(len(basic.q), 6, 26, -32.0, 32.0), basic.q,
+                       np.random.default_rng(1),
+                       GAConfig(population=32, crossovers=8, lchr=4, epoch=5), structure,
+                       basic.psi, basic.with_structure, target=Target(0),
+                       refine=RefineConfig(basis=100, evals=60), flights=1500)
+    loop = RunLoop(ga, lambda laws: Evaluation(F := _di_objectives(laws), np.zeros(len(F)),
+                                               [{}] * len(F), len(F)),
+                   ParetoArchive(), flights=1500).run()
+    law = loop.archive.items[Target(0).best(loop.archive.F, loop.archive.cv)][0].law
+    # its form: a switching operation (sgn, Heaviside, pos or dead zone) on the path to u
+    ops = {int(law.psi[i, j]) for i in range(law.size) for j in range(i + 1, law.size)
+           if law.psi[i, j]}
+    assert ops & {9, 10, 25, 26}, law.formula()
+    # it brings the plant to the origin from both sides (x0 = +1 and -1 at rest) within 5 % of
+    # the closed-form minimum time 2 s, and its mean over the 4 starts is below the closed-form
+    # mean minimum time (3.081 s; the 0.1 ball ends a flight a little earlier)
+    times = [_time_to_origin(law, *s) for s in DI_STARTS]
+    assert times[0] <= 1.05 * _t_star(1.0, 0.0) and times[1] <= 1.05 * _t_star(-1.0, 0.0)
+    t_star = np.mean([_t_star(*s) for s in DI_STARTS])
+    assert t_star == pytest.approx(3.0811, abs=1e-4)
+    assert np.mean(times) <= t_star
+    # no linear law does as well: the best of Nelder-Mead from 4 starts over the two gains
+    # (an independent search) stays above the closed-form mean
+    linear = lambda k: float(np.mean([_time_to_origin(  # noqa: E731
+        lambda s: [min(1.0, max(-1.0, -k[0] * s[0] - k[1] * s[1]))], *p) for p in DI_STARTS]))
+    best_linear = min(minimize(linear, k0, method="Nelder-Mead").fun
+                      for k0 in ([1.0, 1.5], [4.0, 4.0], [10.0, 6.0], [30.0, 20.0]))
+    assert best_linear > t_star
+
+
+# -- restarts of a stalled structure search --------------------------------------------------------
+def _stall_ga(seed: int, generations: int, restart_epochs: int = 2):
+    from descent_fmus.synthesis.methods.encoding import StructureCodec
+    from descent_fmus.synthesis.methods.law import NetworkOperator
+    from descent_fmus.synthesis.methods.variational_ga import GAConfig, VariationalGA
+    basic = NetworkOperator.linear([[-1.0, -1.5]], bounds=[(-1.0, 1.0)], size=12)
+    ga = VariationalGA(GrayCodec(len(basic.q), 6, 26, -32.0, 32.0), basic.q,
+                       np.random.default_rng(seed),
+                       GAConfig(population=16, crossovers=4, lchr=4, epoch=5,
+                                restart_epochs=restart_epochs),
+                       StructureCodec(basic.size, basic.nx + len(basic.q)), basic.psi,
+                       basic.with_structure, target=Target(0),
+                       refine=RefineConfig(basis=0, evals=0), generations=generations)
+    return ga, basic.psi
+
+
+def _stalled_objectives(psi0):
+    """1 for the basic matrix, 2 + (changed entries) for any other: no law ever beats the
+    basis, so the search stalls from its first epoch."""
+    def objectives(laws):
+        F = [(1.0 if np.array_equal(law.psi, psi0) else 2.0 + np.sum(law.psi != psi0),
+              float(np.sum(np.abs(law.q)))) for law in laws]
+        return np.array(F)
+    return objectives
+
+
+def test_a_stalled_search_restarts_every_restart_epochs():
+    from descent_fmus.synthesis.methods.pareto import ParetoArchive
+    from descent_fmus.synthesis.run.evaluation import Evaluation
+    from descent_fmus.synthesis.run.loop import RunLoop
+
+    def run(ga, objectives):
+        def evaluate(laws):
+            F = objectives(laws)
+            return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
+        return RunLoop(ga, evaluate, ParetoArchive()).run().method
+
+    ga, psi0 = _stall_ga(3, 60)
+    a = run(ga, _stalled_objectives(psi0))
+    # epochs at generations 5, 10, ..., 55 (11): the first sets the mark, then every second
+    # stalled epoch restarts (3, 5, 7, 9, 11): 5 restarts (hand count)
+    assert a.stats["restarts"] == 5
+    # without restarts, none; the same seed, the same run; a JSON checkpoint resumes it
+    ga0, _ = _stall_ga(3, 60, restart_epochs=0)
+    assert "restarts" not in run(ga0, _stalled_objectives(psi0)).stats
+    b = run(_stall_ga(3, 60)[0], _stalled_objectives(psi0))
+    assert np.array_equal(a.F, b.F) and a.evaluations == b.evaluations
+    c = run(_stall_ga(3, 32)[0], _stalled_objectives(psi0))
+    state = json.loads(json.dumps(c.state()))
+    d = run(_stall_ga(999, 60)[0].load_state(state), _stalled_objectives(psi0))
+    assert np.array_equal(a.F, d.F) and d.stats["restarts"] == 5
+
+
+def test_children_with_the_basis_parameters():
+    # basis_q = 1: every child flies its variations with member 0's parameters (bit for bit);
+    # basis_q = 0: the children's parameters come from their parents' crossover and mutation,
+    # and some differ from member 0's
+    for p, all_basis in ((1.0, True), (0.0, False)):
+        ga, psi0 = _stall_ga(5, 10)
+        ga.cfg = dataclasses.replace(ga.cfg, basis_q=p)
+        ga.tell(_stalled_objectives(psi0)([c.law for c in ga.ask()]))    # initial population
+        children = ga._children()
+        same = [np.array_equal(c.bits, ga.pop[0].bits) for c in children]
+        assert children and all(same) == all_basis
