@@ -198,7 +198,9 @@ def test_tutorial_front_and_flight_are_what_the_run_wrote(tutorial_runs, capsys)
                 f"{shown[1]}: the page shows\n{line}\nthe run wrote\n{wrote}"
     checks = _tutorial_measured(where)
     times = {"hopper.wall": next(r.seconds for c, r in runs[page.name].items()
-                                 if " synthesize " in c)}
+                                 if " synthesize " in c),
+             "hopper.seconds": json.loads((where / "runs" / "hopper" / "summary.json")
+                                          .read_text())["seconds"]}
     figures = quoted_figures(page)
     unknown = [f.key for f in figures if f.key not in (checks if f.kind == "check" else times)]
     assert not unknown, f"markers no run measures: {unknown}"
@@ -224,8 +226,14 @@ def _tutorial_measured(where: Path) -> dict:
             "hopper.t_land": land["time"], "hopper.v_land_mm": land["v"] * 1000,
             "hopper.fuel_used": flight[0]["m"] - land["m"],
             "hopper.stop_time": flight[-1]["time"],
-            "hopper.file_generations": tomllib.loads(
-                (where / "docs" / "tutorials" / "hopper.toml").read_text())["ga"]["generations"]}
+            "hopper.file_flights": _file_flights(where / "docs" / "tutorials" / "hopper.toml")}
+
+
+def _file_flights(path: Path) -> int:
+    """The flight budget a problem file runs with: its own, else the package's default."""
+    from descent_fmus.synthesis.problems.contract import Budget
+    budget = tomllib.loads(path.read_text()).get("budget", {})
+    return budget.get("flights", Budget().flights)
 
 
 # ---- reentry bound: one name for each bound, read from the synthesis' cache -------------------
