@@ -126,9 +126,9 @@ BAD = [
     ("[ga]", "[ga]\npopulation_size = 3", ["ga.population_size", "unknown key"]),
     # the Gray code decodes through int64/float64: at most 48 bits per parameter
     ("[ga]", "[ga]\nq_bits = [30, 19]", ["ga.q_bits", "1 to 48"]),
-    # every "not an output" error lists the outputs (the plant's: h, m, v)
-    ('stop = { output = "h"', 'stop = { output = "hh"', ["simulation.stop.output",
-                                                          "its outputs: ", "h, m, v"]),
+    # every "not an output" error lists the outputs (the hopper's, sorted)
+    ('stop = { output = "h"', 'stop = { output = "hh"',
+     ["simulation.stop.output", "its outputs: ", "fuel, h, m, status, t_end, v"]),
     # a missing table says what to write: its keys and a one-line example
     ("[basic_law]" + " " * 29 + "# throttle = 0.324 - 1.5 h/10 - 0.5 v (hover + PD)\n"
      "gains = [ [ -1.5, -0.5 ] ]\nbias = [ 0.324 ]\nsize = 14\n", "",

@@ -25,7 +25,8 @@ TINY = dict(population=8, generations=0, crossovers=2, lchr=2, epoch=2)
 
 
 def test_baselines_are_laws_of_the_generic_controller(fmu_dir):
-    assert method_names(REENTRY) == ["network-operator", "cma-basic", "cma-polynomial", "cma-tanh"]
+    assert method_names(REENTRY) == ["network-operator", "cma-basic", "cma-polynomial", "cma-tanh",
+                                     "gp"]
     structures = REENTRY.baselines()
     with load_loop(fmu_dir) as loop:
         flights = {n: fly(law, loop=loop).objectives for n, law in structures.items()}
