@@ -5,8 +5,8 @@ Usage: ``python build_fmus.py [--validate] [--out DIR] [--system STEM ...]``, af
 ``pip install -e .``.  The output goes to ``fmus/`` beside this file unless ``--out`` says
 otherwise.  What is built comes from the registry of systems (``synthesis/registry.py``): every
 system's pythonfmu FMU classes, then its closed loops as fmpy container FMUs (``fmpy simulate``
-runs them directly) with an SSP file beside each, then the native (C) plants and twins of the
-generic controllers into ``native/`` and the closed loops whose plant and controller both have
+runs them directly) with an SSP file beside each, then the native (C) plants and controller
+twins the systems name into ``native/`` and the closed loops whose plant and controller both have
 twins there (skipped, with one line, where no C compiler exists).
 """
 from __future__ import annotations
@@ -28,9 +28,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     try:
         from descent_fmus.synthesis.fmi.compose import build_slave, with_defaults
-        from descent_fmus.synthesis.fmi.native.loops import build_native_fmus
-        from descent_fmus.synthesis.fmi.native.plant_fmu import build_native_plants
-        from descent_fmus.synthesis.registry import SYSTEMS, get_system
+        from descent_fmus.synthesis.fmi.native.builders.closed_loops import build_native_fmus
+        from descent_fmus.synthesis.fmi.native.builders.plant_fmu import build_native_plants
+        from descent_fmus.synthesis.registry import (SYSTEMS, get_system, native_controllers,
+                                                     native_plants)
     except ImportError as exc:
         print(f"build_fmus.py: cannot import descent_fmus ({exc}); install the project first: "
               f"pip install -e .", file=sys.stderr)
@@ -63,10 +64,11 @@ def main(argv=None) -> int:
             fmu, ssp = spec.write(plant, ctrl, out)
             built.append(fmu)
             print(f"built {fmu.name} and {ssp.name}")
-    # the native plants (C generated from models/), the C twins of the generic controllers, and
+    # the native plants (C generated from models/) and controller twins the systems name, and
     # the closed loops whose twins are all built
-    built += build_native_plants(out / "native", [c for sy in systems for c in sy.fmus])
-    built += build_native_fmus(out / "native", [s for sy in systems for s in sy.closed_loops])
+    built += build_native_plants(out / "native", native_plants(systems))
+    built += build_native_fmus(out / "native", native_controllers(systems),
+                               [s for sy in systems for s in sy.closed_loops])
     if args.validate:
         from fmpy.validation import validate_fmu
         bad = 0

@@ -1,6 +1,6 @@
 /* c_master.c -- flights of a closed loop of two FMI 2.0 co-simulation FMUs with no Python in the
  * process: the pure-C reference of benchmarks/native_paths.py.  The flights are those of the
- * evaluator's C master (dm_fly of synthesis/fmi/native/c/master.c, compiled in), driven from
+ * evaluator's C master (dm_fly of synthesis/fmi/native/c/master/master.c, compiled in), driven from
  * a text file instead of Python.
  *
  *   c_master PLANT.so PLANT_GUID CTRL.so CTRL_GUID SPEC FLIGHTS
@@ -13,8 +13,9 @@
  * Prints the outputs of the last flight (hexadecimal floats, one line) and
  * "seconds_per_flight <s>" on stderr.
  *
- * Build: cc -std=c99 -O2 -I synthesis/fmi/native/c -o c_master benchmarks/c_master.c \
- *            synthesis/fmi/native/c/master.c -ldl -lm
+ * Build: cc -std=c99 -O2 -I synthesis/fmi/native/c/master -I synthesis/fmi/native/c/fmi2 \
+ *            -o c_master benchmarks/c_master.c \
+ *            synthesis/fmi/native/c/master/master.c -ldl -lm
  */
 #define _POSIX_C_SOURCE 199309L
 #include <stdio.h>

@@ -35,7 +35,7 @@ from fmpy import extract, read_model_description
 
 from descent_fmus.synthesis.fmi.c_master_loop import STOP_OPS, STOP_TYPES
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
-from descent_fmus.synthesis.fmi.native.build import C_DIR, COMPILE_FLAGS, find_compiler
+from descent_fmus.synthesis.fmi.native.builders.build import COMPILE_FLAGS, c_file, find_compiler
 from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
@@ -120,8 +120,9 @@ class CMaster:
 
     def __init__(self, problem, plant_twin, ctrl_twin, law, work: Path):
         self.exe = work / "c_master"
-        subprocess.run([find_compiler(), *COMPILE_FLAGS[1:4], "-I", str(C_DIR), "-o",
-                        str(self.exe), str(HERE / "c_master.c"), str(C_DIR / "master.c"),
+        master, fmi2 = c_file("master.c"), c_file("fmi2FunctionTypes.h").parent
+        subprocess.run([find_compiler(), *COMPILE_FLAGS[1:4], "-I", str(master.parent), "-I",
+                        str(fmi2), "-o", str(self.exe), str(HERE / "c_master.c"), str(master),
                         "-ldl", "-lm"], check=True)
         self.libs, lines, var = [], [], {}
         for tag, path, values in (("p", plant_twin, problem.initial_states[0]),

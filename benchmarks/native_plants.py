@@ -1,8 +1,9 @@
 """Benchmark: ms per flight of every plant FMU, pythonfmu against native, through one fmpy master.
 
-For each plant of ``synthesis.fmi.native.plant_fmu.PLANTS``: a flight is what a Python master
-does with the plant -- reset, initialisation, then per communication step set the inputs of a
-fixed program, ``doStep`` and read every output -- until the horizon or a non-zero ``status``.
+For each native plant of the systems (``synthesis.registry.native_plants``): a flight is what
+a Python master does with the plant -- reset, initialisation, then per communication step set
+the inputs of a fixed program, ``doStep`` and read every output -- until the horizon or a
+non-zero ``status``.
 The same loop (fmpy's ``FMU2Slave``) flies ``fmus/<Plant>.fmu`` (pythonfmu: Python's RK4 behind
 the C++ bridge) and ``fmus/native/<Plant>.fmu`` (C generated from the same Python), in
 interleaved rounds (the median of each, so that a change of the machine's load slows both
@@ -25,7 +26,7 @@ import time
 from pathlib import Path
 
 from descent_fmus.synthesis.fmi.closed_loop import load_slave
-from descent_fmus.synthesis.fmi.native.plant_fmu import PLANTS
+from descent_fmus.synthesis.registry import native_plants
 from descent_fmus.synthesis.paths import fmu_dir
 
 
@@ -121,12 +122,13 @@ def main(argv=None) -> int:
     ap.add_argument("--json", action="store_true", help="print the rows as JSON")
     args = ap.parse_args(argv)
     folder = Path(args.fmus) if args.fmus else fmu_dir()
-    missing = [n for n in args.plant or PLANTS if not (folder / "native" / f"{n}.fmu").is_file()]
+    plants = native_plants()
+    missing = [n for n in args.plant or plants if not (folder / "native" / f"{n}.fmu").is_file()]
     if missing:
         print(f"native plants missing in {folder / 'native'}: {', '.join(missing)} (run python "
               f"build_fmus.py)")
         return 2
-    rows = [bench(name, folder, args.rounds) for name in args.plant or PLANTS]
+    rows = [bench(name, folder, args.rounds) for name in args.plant or plants]
     if args.json:
         print(json.dumps({"machine": machine(), "rows": rows}, indent=1))
         return 0

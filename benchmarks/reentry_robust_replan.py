@@ -54,7 +54,7 @@ def _lp_rates(repeat: int = 200) -> dict:
     from scipy.optimize import linprog
 
     from descent_fmus.models.controllers.reentry_replan import PLAN_KNOTS, lp_problems
-    from descent_fmus.synthesis.fmi.native.onboard_lp import linprog_c
+    from descent_fmus.synthesis.systems.reentry.native.onboard_lp import linprog_c
     rng = np.random.default_rng(1)
     k = len(PLAN_KNOTS)
     problems = [lp_problems(rng.normal(0.0, 300.0), rng.uniform(3.0, 10.0, 280),

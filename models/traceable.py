@@ -1,7 +1,7 @@
 """Branches written so that the native-plant generator traces them as one C conditional.
 
 The native plant FMUs are C generated from these models by running their own functions on
-traced values (``synthesis/fmi/native/plant_trace.py``).  A plain ``if`` on a value is traced
+traced values (``synthesis/fmi/native/tracer/plant_trace.py``).  A plain ``if`` on a value is traced
 too -- one C ``if`` per path -- but everything after it is then written once per path; where
 that would multiply, a model writes the branch with these helpers instead.  On plain numbers
 they are exactly the Python expressions they name (the same operations, the same result, the

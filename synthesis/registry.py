@@ -2,8 +2,10 @@
 
 Each system lives in ``synthesis/systems/<stem>/`` and describes itself with a :class:`System`
 record named ``SYSTEM`` in its package: the FMU classes it contributes (built by
-``build_fmus.py``), the closed-loop FMUs composed from them, its synthesis problems and its
-command-line sub-commands.  :data:`SYSTEMS` lists the stems; adding a system is one line here.
+``build_fmus.py``), the native (C) plants and controller twins it builds, the closed-loop FMUs
+composed from them, its synthesis problems and its command-line sub-commands.  This is the one
+registry of what a system builds: the generic builders (``synthesis/fmi/``) take it as
+arguments and know no system.  :data:`SYSTEMS` lists the stems; adding a system is one line here.
 
 Nothing is imported or computed until asked for (``python -X importtime -c 'import
 descent_fmus.synthesis.registry'`` imports no system): a system package is imported by
@@ -19,7 +21,8 @@ from typing import Callable, Mapping
 
 
 __all__ = ["SYSTEMS", "System", "ClosedLoopSpec", "get_system", "all_systems", "get_problem",
-           "problem_names", "fmu_classes", "closed_loop_specs", "UnknownProblemError"]
+           "problem_names", "fmu_classes", "closed_loop_specs", "native_plants",
+           "native_controllers", "UnknownProblemError"]
 
 #: Stems of the systems, in the order the docs present them (one line per system).
 SYSTEMS = (
@@ -60,7 +63,7 @@ class ClosedLoopSpec:
     def write(self, plant_fmu: Path, controller_fmu: Path, folder: Path) -> tuple:
         """``(closed-loop FMU, SSP file)`` around these plant and controller FMUs, written into
         ``folder`` as ``<Name>.fmu`` and ``<Name>.ssp``."""
-        from descent_fmus.synthesis.fmi.compose import closed_loop_fmu, write_ssp
+        from descent_fmus.synthesis.fmi.containers import closed_loop_fmu, write_ssp
         w, folder = self.wiring, Path(folder)
         return (closed_loop_fmu(w, plant_fmu, controller_fmu, folder / f"{w.name}.fmu",
                                 parameters=self.parameters),
@@ -82,6 +85,13 @@ class System:
         pythonfmu FMU classes as ``"module:Class"`` (module relative to ``descent_fmus.models``,
         e.g. ``"reentry:Reentry"``, ``"controllers.network_operator:NetworkOperatorController"``).
     closed_loops : tuple of ClosedLoopSpec
+    native_plants : callable or None
+        ``() -> {model identifier: PlantSpec}``: the native plants it builds
+        (:class:`synthesis.fmi.native.builders.plant_fmu.PlantSpec`: C traced from the plant).
+    native_controllers : callable or None
+        ``() -> {model identifier: builder}``: the native controller twins it flies, generic
+        (``synthesis.fmi.native.builders.controllers.GENERIC_TWINS``) or its own; a builder is
+        ``builder(dest, compiler=None, defaults=None) -> Path``.
     problems : callable or None
         ``() -> tuple of SynthesisProblem`` (network-operator synthesis problems).
     add_commands : callable or None
@@ -92,6 +102,8 @@ class System:
     title: str
     fmus: tuple = ()
     closed_loops: tuple = ()
+    native_plants: Callable[[], Mapping] | None = None
+    native_controllers: Callable[[], Mapping] | None = None
     problems: Callable[[], tuple] | None = None
     add_commands: Callable | None = None
 
@@ -145,3 +157,21 @@ def fmu_classes() -> list[str]:
 
 def closed_loop_specs() -> list[ClosedLoopSpec]:
     return [spec for system in all_systems() for spec in system.closed_loops]
+
+
+def _merged(systems, field: str) -> dict:
+    out = {}
+    for system in systems:
+        declared = getattr(system, field)
+        out.update((k, v) for k, v in (declared() if declared else {}).items() if k not in out)
+    return out
+
+
+def native_plants(systems=None) -> dict:
+    """The native plants of ``systems`` (default: all), each model identifier once."""
+    return _merged(all_systems() if systems is None else systems, "native_plants")
+
+
+def native_controllers(systems=None) -> dict:
+    """The native controller twins of ``systems`` (default: all), each model identifier once."""
+    return _merged(all_systems() if systems is None else systems, "native_controllers")

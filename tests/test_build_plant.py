@@ -18,8 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from descent_fmus.synthesis.fmi.native.build import find_compiler
-from descent_fmus.synthesis.fmi.native.user_plant import (PlantFileError, build_plant,
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
+from descent_fmus.synthesis.fmi.user_plant import (PlantFileError, build_plant,
                                                           check_twins)
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (CI installs gcc)")

@@ -1,4 +1,4 @@
-"""The C master (synthesis/fmi/native/c/master.c): the evaluator's native path.
+"""The C master (synthesis/fmi/native/c/master/master.c): the evaluator's native path.
 
 Oracle: the Python master (``ClosedLoop``) on the same native FMUs -- the master algorithm's
 definition -- and fmpy's container FMU: the same FMI calls in the same order, so every final plant

@@ -143,7 +143,7 @@ def test_invalid_parameter_is_reported_with_its_name(fmu_dir, plant):
 
 def test_the_build_wraps_pythonfmu_binaries_where_a_compiler_exists(fmu_dir):
     # CI installs gcc: every pythonfmu FMU then reports user errors as fmi2Error
-    from descent_fmus.synthesis.fmi.native.build import find_compiler
+    from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
     if find_compiler() is None:
         pytest.skip("no C compiler: the FMUs keep pythonfmu's own binary")
     for plant in PLANTS:
@@ -165,7 +165,7 @@ def test_container_reports_an_invalid_parameter_as_fmi2error(fmu_dir, loop):
 
 # -- fine output: a finer container step, the controller at its own sample period -----------------
 def test_fine_output_keeps_the_controller_period(fmu_dir, loop, tmp_path):
-    from descent_fmus.synthesis.fmi.compose import refine_container
+    from descent_fmus.synthesis.fmi.containers import refine_container
     coarse = fmu_dir / "ReentryClosedLoop.fmu"
     with pytest.raises(Exception, match="fmi2DoStep failed"):   # fmpy's container refuses
         simulate_fmu(str(coarse), output_interval=0.1, stop_time=2.0)

@@ -17,7 +17,7 @@ from descent_fmus.synthesis.cli.main import main
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.compose import model_closure
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.registry import fmu_classes, get_problem
 
 # a five-term reentry law whose readable form is known by hand (see test_law_formula)

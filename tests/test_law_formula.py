@@ -20,8 +20,8 @@ from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS
                                                               UNARY_OPS)
 from descent_fmus.synthesis.methods.law_formula import readable, sympy_functions
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.fmi.native.build import find_compiler
-from descent_fmus.synthesis.fmi.native.ccode import OperationError, law_c, operations_c, render
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
+from descent_fmus.synthesis.fmi.native.builders.ccode import OperationError, law_c, operations_c, render
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 from test_native_law import DESCENT_LAW, REENTRY_LAW, every_operation_law

@@ -72,6 +72,51 @@ def test_no_import_cycle():
             visit(m)
 
 
+def _node(name: str, path: Path) -> str:
+    """The package a module belongs to (a package's ``__init__``: the package itself); the
+    top-level modules of ``synthesis/`` and ``models/`` (``registry``, ``paths``, ...) are
+    nodes of their own."""
+    pkg = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    return name if pkg in PACKAGES and path.name != "__init__.py" else pkg
+
+
+def package_cycles() -> list:
+    """Import cycles between packages (each as a list of package names, the first repeated at
+    the end).  A package's ``__init__`` importing its own sub-packages (its SYSTEM record) is
+    no cycle; any other module importing its parent's package and back is."""
+    modules = _modules()
+    graph: dict = {}
+    for name, path in modules.items():
+        a = _node(name, path)
+        for dep in _imports(path, name, modules):
+            b = _node(dep, modules[dep])
+            if a != b and not (path.name == "__init__.py" and b.startswith(a + ".")):
+                graph.setdefault(a, set()).add(b)
+    state, stack, cycles = {}, [], []
+
+    def visit(n):
+        state[n] = 1
+        stack.append(n)
+        for d in sorted(graph.get(n, ())):
+            if state.get(d) == 1:
+                cycles.append(stack[stack.index(d):] + [d])
+            elif d not in state:
+                visit(d)
+        stack.pop()
+        state[n] = 2
+
+    for n in sorted(graph):
+        if n not in state:
+            visit(n)
+    return cycles
+
+
+def test_no_import_cycle_between_packages():
+    # e.g. synthesis.fmi.native importing synthesis.fmi (units) while synthesis.fmi imports
+    # synthesis.fmi.native (the compiler) was one
+    assert package_cycles() == []
+
+
 def test_models_depend_on_nothing_above_them():
     for name, path in _modules().items():
         if name.startswith("descent_fmus.models"):
@@ -105,6 +150,22 @@ def test_importing_the_package_reads_no_data_and_runs_no_solver():
     lines = dict(line.split(" ", 1) for line in r.stdout.splitlines())
     assert lines["DATA"] == "[]", lines["DATA"]
     assert lines["SOLVERS"] == "[]", lines["SOLVERS"]
+
+
+def test_every_c_file_ships_as_package_data():
+    # the hand-written C of the native FMUs (the core's and a system's) is installed with the
+    # package: every .c/.h file under synthesis/ matches a package-data glob of its package
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    globs = data["package-data"]
+    missing = []
+    for path in sorted((ROOT / "synthesis").rglob("*.[ch]")):
+        pkg_dir = next(p for p in path.parents if (p / "__init__.py").is_file())
+        pkg = "descent_fmus." + ".".join(pkg_dir.relative_to(ROOT).parts)
+        rel = path.relative_to(pkg_dir)
+        if not any(rel.match(g) and len(rel.parts) == len(Path(g).parts)
+                   for g in globs.get(pkg, ()) + globs.get("*", [])):
+            missing.append(str(path.relative_to(ROOT)))
+    assert not missing, f"not in [tool.setuptools.package-data]: {missing}"
 
 
 def test_every_package_is_installed():
@@ -201,6 +262,48 @@ def test_methods_know_no_system():
         if ".synthesis.methods." in name:
             deps = {d for d in _imports(path, name, modules) if d.startswith("descent_fmus.models")}
             assert deps <= allowed, (name, deps - allowed)
+
+
+#: The model modules every system shares: the core may import these, and no other model (a
+#: system's plant or its own controllers).
+SHARED_MODELS = {"descent_fmus.models", "descent_fmus.models.controllers",
+                 *(f"descent_fmus.models.{m}" for m in (
+                     "params", "integrators", "fmu_support", "pythonfmu_compat", "rk4_input",
+                     "traceable", "controllers.network_operator", "controllers.program_table"))}
+CORE = ("fmi", "run", "methods", "problems", "cli")
+
+
+def core_imports_of_systems() -> list:
+    """``"module imports dependency"`` for every import of a system (``synthesis.systems.*``)
+    or of a system's model (``models.reentry``, ``models.controllers.drag_estimator``, ...) by
+    the core (:data:`CORE`)."""
+    modules = _modules()
+    bad = []
+    for name, path in modules.items():
+        if _layer(name) not in CORE:
+            continue
+        for dep in _imports(path, name, modules):
+            if dep.startswith("descent_fmus.synthesis.systems") or (
+                    dep.startswith("descent_fmus.models") and dep not in SHARED_MODELS):
+                bad.append(f"{name} imports {dep}")
+    return bad
+
+
+def test_the_core_knows_no_system():
+    # fmi, run, methods, problems and cli find the systems only through the registry: no import
+    # of a system's package or of a system's models (S1's native code lives in its package)
+    assert core_imports_of_systems() == []
+
+
+def test_every_module_names_its_job():
+    # every module starts with a docstring whose first line says what the module is for
+    bad = []
+    for folder in ("models", "synthesis"):
+        for path in (ROOT / folder).rglob("*.py"):
+            doc = ast.get_docstring(ast.parse(path.read_text()))
+            if not doc or len(doc.splitlines()[0].split()) < 3:
+                bad.append(str(path.relative_to(ROOT)))
+    assert not bad, f"modules without a docstring naming their job: {bad}"
 
 
 #: Functions allowed beyond 80 lines: none today (a table, such as an operation list, would be

@@ -23,11 +23,13 @@ from fmpy.validation import validate_fmu
 from descent_fmus.models.controllers.network_operator import BINARY, UNARY
 from descent_fmus.models.controllers.program_table import program_values
 from descent_fmus.synthesis.fmi.closed_loop import load_slave
-from descent_fmus.synthesis.fmi.native.build import find_compiler
-from descent_fmus.synthesis.fmi.native.controllers import NATIVE_CONTROLLERS
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.registry import native_controllers
 
 from test_native_law import bits, every_operation_law, inputs, start
+
+NATIVE_CONTROLLERS = native_controllers()
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (CI installs gcc)")
 
@@ -416,12 +418,13 @@ def test_native_closed_loop_fmu_and_ssp(twin_dir, fmu_dir, tmp_path):
     from fmpy import simulate_fmu
     from fmpy.ssp.ssd import read_ssd
 
-    from descent_fmus.synthesis.fmi.compose import refine_container
-    from descent_fmus.synthesis.fmi.native.loops import build_native_closed_loops
+    from descent_fmus.synthesis.fmi.containers import refine_container
+    from descent_fmus.synthesis.fmi.native.builders.closed_loops import build_native_closed_loops
     from descent_fmus.synthesis.registry import get_system
     specs = [s for s in get_system("reentry").closed_loops
              if s.wiring.name == "ReentryClosedLoop"]
-    built = build_native_closed_loops(specs, twin_dir / "native", say=lambda _: None)
+    built = build_native_closed_loops(specs, twin_dir / "native", NATIVE_CONTROLLERS,
+                                      say=lambda _: None)
     loop = twin_dir / "native" / "ReentryClosedLoop.fmu"
     assert built == [loop] and validate_fmu(str(loop)) == []
     names = ["L", "load_max", "status", "t_end"]
@@ -442,7 +445,7 @@ def test_native_closed_loop_in_a_c_host(twin_dir, fmu_dir, tmp_path):
     # the native ReentryClosedLoop (fmpy's container FMU, C, of the two native twins) run by the
     # C host tests/fmi2_host.c with LD_PRELOAD, PYTHONHOME and PYTHONPATH unset: the same final
     # L and load_max as the pythonfmu FMUs under the Python master, bitwise
-    from descent_fmus.synthesis.fmi.native.loops import build_native_closed_loops
+    from descent_fmus.synthesis.fmi.native.builders.closed_loops import build_native_closed_loops
     from descent_fmus.synthesis.registry import get_problem, get_system
     from test_native_law import _host
     if not (fmu_dir / "native" / "Reentry.fmu").is_file():
@@ -451,7 +454,7 @@ def test_native_closed_loop_in_a_c_host(twin_dir, fmu_dir, tmp_path):
     if not loop.is_file():
         build_native_closed_loops([s for s in get_system("reentry").closed_loops
                                    if s.wiring.name == "ReentryClosedLoop"],
-                                  twin_dir / "native", say=lambda _: None)
+                                  twin_dir / "native", NATIVE_CONTROLLERS, say=lambda _: None)
     work = tmp_path / "loop"
     with zipfile.ZipFile(loop) as z:
         z.extractall(work)

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
-from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.methods.law import NetworkOperator
 
 from test_native_law import bits, start
@@ -30,7 +30,7 @@ OUTPUTS = ("u[1]", "correction", "predicted_miss", "drag_factor_log", "drag_fact
 
 @pytest.fixture(scope="module")
 def guided_twin(tmp_path_factory):
-    from descent_fmus.synthesis.fmi.native.controllers import build_guided_controller
+    from descent_fmus.synthesis.systems.reentry.native.controllers import build_guided_controller
     return build_guided_controller(tmp_path_factory.mktemp("guided") /
                                    "GuidedNetworkOperatorController.fmu")
 
@@ -171,7 +171,7 @@ def test_guided_twin_names_errors_as_the_python_controller(fmu_dir, guided_twin)
 # -- the NPC baseline (ReentryNPC) ------------------------------------------------------------
 @pytest.fixture(scope="module")
 def npc_twin(tmp_path_factory):
-    from descent_fmus.synthesis.fmi.native.controllers import build_npc_controller
+    from descent_fmus.synthesis.systems.reentry.native.controllers import build_npc_controller
     return build_npc_controller(tmp_path_factory.mktemp("npc") / "ReentryNPC.fmu")
 
 

@@ -29,8 +29,8 @@ from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.fmi.law_files import export_law_files
 from descent_fmus.synthesis.methods.law import NetworkOperator
-from descent_fmus.synthesis.fmi.native.build import find_compiler
-from descent_fmus.synthesis.fmi.native.law_fmu import build_law_fmu
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
+from descent_fmus.synthesis.fmi.native.builders.law_fmu import build_law_fmu
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 

@@ -28,11 +28,15 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
 from descent_fmus.synthesis.fmi.closed_loop import load_slave
-from descent_fmus.synthesis.fmi.native.build import C_DIR, find_compiler
-from descent_fmus.synthesis.fmi.native.plant_fmu import PLANTS, build_plant_fmu
+from descent_fmus.synthesis.fmi.native.builders.build import c_file, find_compiler
+from descent_fmus.synthesis.fmi.native.builders.plant_fmu import build_plant_fmu
+from descent_fmus.synthesis.registry import native_plants
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (CI installs gcc)")
 
+PLANTS = native_plants()
+#: the folder of the C runtime
+RUNTIME = c_file("plant_runtime.c").parent
 NAN, INF = math.nan, math.inf
 
 
@@ -255,7 +259,7 @@ _BUILT: dict = {}
 
 def native_fmu(name: str, native_dir: Path) -> Path:
     if name not in _BUILT:
-        _BUILT[name] = build_plant_fmu(name, native_dir / f"{name}.fmu")
+        _BUILT[name] = build_plant_fmu(name, native_dir / f"{name}.fmu", PLANTS[name])
     return _BUILT[name]
 
 
@@ -357,7 +361,7 @@ def test_interface_validation_and_no_python(fmu_dir, native_dir, name, tmp_path)
 def runtime(tmp_path_factory):
     lib = tmp_path_factory.mktemp("runtime") / "runtime.so"
     subprocess.run([find_compiler(), "-shared", "-fPIC", "-O2", "-std=c99", "-ffp-contract=off",
-                    "-I", str(C_DIR), str(C_DIR / "plant_runtime.c"), "-o", str(lib), "-lm"],
+                    "-I", str(RUNTIME), str(RUNTIME / "plant_runtime.c"), "-o", str(lib), "-lm"],
                    check=True)
     dll = ctypes.CDLL(str(lib))
     dll.py_hypot.restype = ctypes.c_double

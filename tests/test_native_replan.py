@@ -22,7 +22,7 @@ from scipy.optimize import linprog
 
 from descent_fmus.models.controllers.reentry_replan import PLAN_KNOTS, lp_problems
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
-from descent_fmus.synthesis.fmi.native.build import find_compiler
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.methods.law import NetworkOperator
 
 from test_native_law import bits
@@ -33,7 +33,7 @@ GUIDED_LAW = "synthesis/systems/reentry/guided_law.json"
 
 
 def _linprog_c(**kw):
-    from descent_fmus.synthesis.fmi.native.onboard_lp import linprog_c
+    from descent_fmus.synthesis.systems.reentry.native.onboard_lp import linprog_c
     return linprog_c(**kw)
 
 
@@ -106,7 +106,7 @@ def test_onboard_lp_refuses_malformed_programmes(kw, match):
 
 @pytest.fixture(scope="module")
 def guided_twin(tmp_path_factory):
-    from descent_fmus.synthesis.fmi.native.controllers import build_guided_controller
+    from descent_fmus.synthesis.systems.reentry.native.controllers import build_guided_controller
     return build_guided_controller(tmp_path_factory.mktemp("replan") /
                                    "GuidedNetworkOperatorController.fmu")
 

@@ -28,9 +28,10 @@ from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS
                                                               compile_law, evaluate,
                                                               operation_numbers)
 from descent_fmus.synthesis.fmi.closed_loop import load_slave
-from descent_fmus.synthesis.fmi.native.build import COMPILE_FLAGS, find_compiler
-from descent_fmus.synthesis.fmi.native.ccode import law_c, operations_c
-from descent_fmus.synthesis.fmi.native.controllers import build_network_operator_controller
+from descent_fmus.synthesis.fmi.native.builders.build import COMPILE_FLAGS, find_compiler
+from descent_fmus.synthesis.fmi.native.builders.ccode import law_c, operations_c
+from descent_fmus.synthesis.fmi.native.builders.controllers import (
+    build_network_operator_controller)
 from descent_fmus.synthesis.methods.law import NetworkOperator
 
 from test_native_law import start

@@ -18,7 +18,7 @@ from fmpy.ssp.ssd import read_ssd
 
 from descent_fmus.models.params import unit_of
 from descent_fmus.models.reentry import ReentryParams
-from descent_fmus.synthesis.fmi.units import UnitError, base_unit, normalise, unit_of_description
+from descent_fmus.synthesis.fmi.description.units import UnitError, base_unit, normalise, unit_of_description
 
 
 @pytest.mark.parametrize("unit, exps, factor", [

@@ -62,7 +62,7 @@ def build_plants(dest: Path = BUILD, names=None, force: bool = False) -> dict:
     path}."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from descent_fmus.synthesis.fmi.native.build import find_compiler
+    from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
     dest = Path(dest)
     dest.mkdir(parents=True, exist_ok=True)
     native = find_compiler() is not None

@@ -1,5 +1,5 @@
 """``descent-fmus build-plant FILE.py``: a plant written once -> its pythonfmu FMU and its native C
-twin, checked against each other bit for bit (:mod:`synthesis.fmi.native.user_plant`)."""
+twin, checked against each other bit for bit (:mod:`synthesis.fmi.user_plant`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -37,7 +37,7 @@ def add_build_plant_command(sub) -> None:
 
 
 def run_build_plant(args) -> int:
-    from descent_fmus.synthesis.fmi.native.user_plant import (CHECK_STEPS, PlantFileError,
+    from descent_fmus.synthesis.fmi.user_plant import (CHECK_STEPS, PlantFileError,
                                                               build_plant)
     try:
         r = build_plant(args.plant, args.dest, check=not args.no_check,

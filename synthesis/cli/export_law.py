@@ -67,7 +67,8 @@ def _problem_of(args, doc: dict):
 
 def run_export_law(args) -> int:
     from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
-    from descent_fmus.synthesis.fmi.native.build import CompilerNotFoundError, NativeBuildError
+    from descent_fmus.synthesis.fmi.native.builders.build import (CompilerNotFoundError,
+                                                                  NativeBuildError)
     from descent_fmus.synthesis.paths import FMUNotFoundError
 
     out = args.out

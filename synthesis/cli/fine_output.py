@@ -36,7 +36,7 @@ def add_fine_output_command(sub) -> None:
 def run_fine_output(args) -> int:
     from fmpy import read_model_description
 
-    from descent_fmus.synthesis.fmi.compose import refine_container
+    from descent_fmus.synthesis.fmi.containers import refine_container
     if args.out.exists():
         raise CliError(f"{args.out} exists; choose another --out (nothing was overwritten)")
     try:

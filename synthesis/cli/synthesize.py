@@ -176,7 +176,7 @@ def _law_export(args):
     """What ``synthesize`` exports per Pareto law (``--no-export``, ``--export``,
     ``--law-fmu``); a compiler missing for ``--law-fmu native`` is a user error."""
     from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu
-    from descent_fmus.synthesis.fmi.native.build import CompilerNotFoundError
+    from descent_fmus.synthesis.fmi.native.builders.build import CompilerNotFoundError
     if args.no_export:
         return False
     try:

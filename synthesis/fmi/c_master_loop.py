@@ -1,6 +1,6 @@
 """The closed loop of two native FMUs stepped by a small C master: one call per flight.
 
-The master (``synthesis/fmi/native/c/master.c``) is the Python master's algorithm
+The master (``synthesis/fmi/native/c/master/master.c``) is the Python master's algorithm
 (:class:`synthesis.fmi.closed_loop.ClosedLoop`) written in C, call for call: reset, start values,
 initialisation, then the Gauss-Seidel exchange and the two ``doStep`` calls on the grid
 ``t_k = k h``, ending at the wiring's stop condition.  The same FMUs give the same numbers bit for
@@ -26,10 +26,10 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.fmi.closed_loop import (ClosedLoopResult, FMUError, Wiring,
-                                                    not_an_output)
-from descent_fmus.synthesis.fmi.declared import declared_starts
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, Wiring
+from descent_fmus.synthesis.fmi.description.declared import declared_starts
 from descent_fmus.synthesis.fmi.native_loop import Layouts, _as_dict
+from descent_fmus.synthesis.fmi.slave import FMUError, not_an_output
 
 __all__ = ["CMasterLoop", "master_library", "MasterUnavailable",
            "STOP_TYPES", "STOP_OPS"]
@@ -65,7 +65,7 @@ def master_library(compiler: str | None = None) -> Path:
     MasterUnavailable
         No C compiler, or it failed on the master's source (the message says which).
     """
-    from descent_fmus.synthesis.fmi.native.build import (CompilerNotFoundError,
+    from descent_fmus.synthesis.fmi.native.builders.build import (CompilerNotFoundError,
                                                          NativeBuildError, cached_library,
                                                          find_compiler)
     cc = compiler or find_compiler()
@@ -108,7 +108,7 @@ class _Fmu:
     def __init__(self, path, role: str, tmp: str):
         from fmpy import extract, read_model_description
 
-        from descent_fmus.synthesis.fmi.native.build import platform_folder
+        from descent_fmus.synthesis.fmi.native.builders.build import platform_folder
         self.md = read_model_description(str(path))
         if self.md.coSimulation is None:
             raise FMUError(f"{path}: not a co-simulation FMU")

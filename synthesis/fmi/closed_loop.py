@@ -17,24 +17,19 @@ from __future__ import annotations
 
 import ctypes
 import math
-import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from fmpy import calloc, extract, free, read_model_description
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                       fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2True)
+from fmpy.fmi2 import fmi2True
 
-from descent_fmus.synthesis.fmi.declared import declared_starts
-from descent_fmus.synthesis.paths import FMUNotFoundError, require_fmu
+from descent_fmus.synthesis.fmi.description.declared import declared_starts
+from descent_fmus.synthesis.fmi.slave import (CFunctions, FMUError, LoadedFMU, load_slave,
+                                              not_an_output)
+from descent_fmus.synthesis.paths import FMUNotFoundError
 
 __all__ = ["Wiring", "Stop", "STATUS_STOP", "ClosedLoop", "ClosedLoopResult",
-           "FMUNotFoundError", "FMUError", "LoadedFMU", "load_slave"]
-
-
-class FMUError(RuntimeError):
-    """An FMU call failed; the message carries what the FMU logged."""
+           "FMUNotFoundError", "FMUError", "LoadedFMU", "load_slave", "not_an_output"]
 
 
 @dataclass(frozen=True)
@@ -81,8 +76,8 @@ STATUS_STOP = Stop("status", "!=", 0.0, check_every=8)
 class Wiring:
     """How a plant and a controller are connected -- one definition for every tool.
 
-    Used by :class:`ClosedLoop` (fmpy master in Python), by ``synthesis.fmi.compose`` for the container
-    FMU and the SSP file, and by the GA's evaluator.
+    Used by :class:`ClosedLoop` (fmpy master in Python), by ``synthesis.fmi.containers`` for the
+    container FMU and the SSP file, and by the GA's evaluator.
 
     Attributes
     ----------
@@ -151,83 +146,7 @@ class ClosedLoopResult:
         return self.outputs[name]
 
 
-class LoadedFMU:
-    """An extracted and instantiated FMI 2.0 co-simulation FMU (fmpy's ``FMU2Slave``) with what
-    this package keeps beside it: the model description, the folder it was extracted to, the
-    FMU's log and the ctypes callbacks that must outlive the instance.  FMI calls are fmpy's:
-    ``loaded.getReal(...)`` is ``loaded.slave.getReal(...)``."""
-
-    def __init__(self, slave: FMU2Slave, model, unzipdir: str, log: list | None, callbacks):
-        self.slave, self.model, self.unzipdir, self.log = slave, model, unzipdir, log
-        self._callbacks = callbacks
-
-    def __getattr__(self, name):
-        # only reached for names this wrapper does not define: fmpy's FMI functions
-        return getattr(self.__dict__["slave"], name)
-
-    def remove_files(self) -> None:
-        """Delete the extracted folder (files only: no FMU call)."""
-        shutil.rmtree(self.unzipdir, ignore_errors=True)
-
-    def free(self) -> None:
-        """Terminate, free the instance and delete its folder."""
-        try:
-            self.slave.terminate()
-        except Exception:
-            pass
-        try:
-            self.slave.freeInstance()
-        finally:
-            self.remove_files()
-
-
-def load_slave(path, instance_name: str, log: list | None = None,
-               validate: bool = True, logging_on: bool = True) -> LoadedFMU:
-    """Extract and instantiate an FMI 2.0 co-simulation FMU once (:class:`LoadedFMU`).
-
-    ``validate=False`` skips fmpy's checks of the model description and ``logging_on=False``
-    asks the FMU to log errors only (for the evaluation-only containers of
-    ``synthesis.fmi.container_loop``: their parameters carry no start value, and a container
-    logging on reports every call of its components)."""
-    path = require_fmu(path)
-    md = read_model_description(str(path), validate=validate)
-    if md.fmiVersion != "2.0" or md.coSimulation is None:
-        raise FMUError(f"{path}: need an FMI 2.0 co-simulation FMU, got FMI {md.fmiVersion} "
-                       f"{'co-simulation' if md.coSimulation else 'model exchange only'}")
-    unzipdir = extract(str(path))
-    slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir,
-                      modelIdentifier=md.coSimulation.modelIdentifier, instanceName=instance_name)
-
-    def logger(component, instance, status, category, message):
-        if log is not None:
-            log.append(message.decode(errors="replace") if message else "")
-
-    callbacks = fmi2CallbackFunctions()
-    callbacks.logger = fmi2CallbackLoggerTYPE(logger)
-    callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-    callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-    slave.instantiate(callbacks=callbacks, loggingOn=logging_on)
-    return LoadedFMU(slave, md, unzipdir, log, callbacks)
-
-
 _NO_START = object()
-
-
-class _CFunctions:
-    """``functions["fmi2DoStep"]``: the C function of a loaded FMU's shared library (fmpy has
-    set its argument and result types when it loaded the library)."""
-
-    def __init__(self, dll):
-        self._dll = dll
-
-    def __getitem__(self, name):
-        return getattr(self._dll, name)
-
-
-def not_an_output(md, name: str) -> str:
-    """The error for a stop condition on ``name``, not an output of ``md``: its outputs."""
-    outs = ", ".join(sorted(v.name for v in md.modelVariables if v.causality == "output"))
-    return f"{md.modelName}: stop condition {name!r} is not an output (its outputs: {outs})"
 
 
 class _Component:
@@ -410,7 +329,7 @@ class ClosedLoop:
         pc, cc = pf.component, cf.component
         # the FMI functions of the shared libraries fmpy loaded, called directly (fmpy's
         # per-call wrapper costs ~1 us, as much as the call itself); statuses are checked below
-        pfn, cfn = _CFunctions(pf.dll), _CFunctions(cf.dll)
+        pfn, cfn = CFunctions(pf.dll), CFunctions(cf.dll)
         get_real_p, set_real_p, step_p = pfn["fmi2GetReal"], pfn["fmi2SetReal"], pfn["fmi2DoStep"]
         set_real_c, get_real_c, step_c = cfn["fmi2SetReal"], cfn["fmi2GetReal"], cfn["fmi2DoStep"]
         ny, nu = len(self._y), len(self._u)

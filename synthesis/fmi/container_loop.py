@@ -15,7 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring, load_slave
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, Wiring
+from descent_fmus.synthesis.fmi.slave import FMUError, load_slave
 
 __all__ = ["ContainerLoop"]
 
@@ -29,9 +30,10 @@ class ContainerLoop:
     recording): ``run(plant_values, controller_values)`` returns a
     :class:`~synthesis.fmi.closed_loop.ClosedLoopResult` whose ``final`` holds every plant output.
 
-    The container is built here from the two FMUs (``synthesis.fmi.compose.closed_loop_fmu``) with
-    every plant output exposed and every parameter of both components exposed under its own name
-    (``plant.NAME`` / ``controller.NAME`` if both components have it).
+    The container is built here from the two FMUs
+    (``synthesis.fmi.containers.closed_loop_fmu``) with every plant output exposed and every
+    parameter of both components exposed under its own name (``plant.NAME`` /
+    ``controller.NAME`` if both components have it).
     """
 
     #: The closed-loop path, in one word (what a run reports).
@@ -40,7 +42,7 @@ class ContainerLoop:
     def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
         from fmpy import read_model_description
 
-        from descent_fmus.synthesis.fmi.compose import closed_loop_fmu
+        from descent_fmus.synthesis.fmi.containers import closed_loop_fmu
         self.wiring = wiring
         mds = {"plant": read_model_description(str(plant_fmu)),
                "controller": read_model_description(str(controller_fmu))}

@@ -60,7 +60,8 @@ def choose_law_fmu(law_fmu: str = "auto") -> tuple[str, str]:
     CompilerNotFoundError
         ``"native"`` asked and no C compiler found.
     """
-    from descent_fmus.synthesis.fmi.native.build import CompilerNotFoundError, find_compiler
+    from descent_fmus.synthesis.fmi.native.builders.build import (CompilerNotFoundError,
+                                                                  find_compiler)
     if law_fmu == "python":
         return "python", ""
     if find_compiler() is not None:
@@ -140,9 +141,9 @@ def export_law_files(law, dest, law_fmu: str = "auto", fmu_dir=None,
         ``law_fmu="native"`` and no C compiler.
     NativeBuildError, FMUNotFoundError, ValueError
     """
-    from descent_fmus.synthesis.fmi.native.ccode import c_identifier
-    from descent_fmus.synthesis.fmi.native.law_fmu import (DEFAULT_IDENTIFIER, build_law_fmu,
-                                                       law_sources)
+    from descent_fmus.synthesis.fmi.native.builders.ccode import c_identifier
+    from descent_fmus.synthesis.fmi.native.builders.law_fmu import (DEFAULT_IDENTIFIER,
+                                                                    build_law_fmu, law_sources)
     kind, note = _law_fmu_kind(law_fmu, problem)
     if (kind == "python" or closed_loop) and fmu_dir is None:
         raise ValueError("a pythonfmu law FMU or a closed loop needs the folder of the built "
@@ -198,7 +199,7 @@ def _closed_loop_files(problem, fmu_dir, ctrl: Path, dest: Path, description: st
     """``<wiring name>.fmu`` (container: the problem's plant + the law FMU ``ctrl``) and
     ``<wiring name>.ssp`` in ``dest``; the plant parameters the problem sets per initial state
     stay parameters of the container.  Returns their paths (``closed_loop_fmu``, ``ssp``)."""
-    from descent_fmus.synthesis.fmi.compose import closed_loop_fmu, write_ssp
+    from descent_fmus.synthesis.fmi.containers import closed_loop_fmu, write_ssp
     w = problem.wiring
     plant_fmu = problem.fmu_paths(fmu_dir)[0]
     wl = replace(w, description=description[:2000])

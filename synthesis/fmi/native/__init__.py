@@ -1,18 +1,20 @@
-"""Native (compiled C) FMUs of synthesis results: laws and program tables with no Python inside.
+"""Native (compiled C) FMUs: plants, controllers, laws and program tables with no Python inside.
 
-* :mod:`.ccode` -- the operation table rendered to C; a law as a straight-line C function
-  (``law.h`` / ``law.c``);
-* :mod:`.build` -- the generic FMI 2.0 co-simulation wrapper (``c/fmi2_cs.c``, written once) +
-  a model's C files, compiled with the system's C compiler into an FMU that ships its sources;
-* :mod:`.law_fmu` -- a network-operator law as a native FMU (the variables of the pythonfmu
-  ``NetworkOperatorController``);
-* :mod:`.table_fmu` -- program tables as native FMUs (one table player, ``c/table_model.c``);
-* :mod:`.controllers` -- the native twins of the generic controllers (the matrix interpreter
-  ``c/no_interp.c``, the table player, S1's estimator traced by :mod:`.sensing`) and
-  :mod:`.loops`, the closed loops of native FMUs; the ``plant_*`` modules generate the native
-  plants.
+Folders by job:
 
-Nothing here is imported by the GA's evaluator: it flies the generic controller FMU (the
-native twin where built, ``synthesis.fmi.native_loop``); what a run *exports* is native
-(``synthesis.fmi.law_files``).
+* :mod:`.tracer` -- Python models run on traced values and rendered to C (the plants, and
+  whatever a system traces with it: S1's estimator and on-board predictions);
+* :mod:`.builders` -- the compiler, the FMU writer, the native twins of the generic
+  controllers, laws, program tables and plants as FMUs, the native closed-loop FMUs;
+* ``c/fmi2/`` -- the generic FMI 2.0 co-simulation wrapper (``fmi2_cs.c``, written once), the
+  vendored FMI 2.0 headers and the status wrapper of pythonfmu FMUs;
+* ``c/runtime/`` -- the C runtime of the traced code (Python-exact helpers, the stepping loops,
+  the plant model glue, CPython's random generator, Brent's root search);
+* ``c/controllers/`` -- the generic controllers in C (the network-operator interpreter, the
+  table player, a law's model);
+* ``c/master/`` -- the C master that flies two native FMUs in closed loop.
+
+A system's own native code lives in its package (S1: ``synthesis/systems/reentry/native/``);
+nothing here imports a system.  The closed loops that fly the native FMUs are in
+:mod:`synthesis.fmi` (``c_master_loop``, ``native_loop``).
 """

@@ -13,6 +13,19 @@ GA).
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
 from descent_fmus.synthesis.systems.lunar_descent import cli, problems
 
+
+def _native_plants() -> dict:
+    """The native plants of this system (C traced from its plant classes)."""
+    from descent_fmus.synthesis.fmi.native.builders.plant_fmu import PlantSpec
+    return {"LunarDescent": PlantSpec("lunar_descent:LunarDescent", "descent")}
+
+
+def _native_controllers() -> dict:
+    """The native twin of the generic controller this system flies."""
+    from descent_fmus.synthesis.fmi.native.builders.controllers import GENERIC_TWINS
+    return {"NetworkOperatorController": GENERIC_TWINS["NetworkOperatorController"]}
+
+
 SYSTEM = System(
     stem="lunar_descent",
     title="S5 descent from lunar orbit: network-operator synthesis with two controls (h, V "
@@ -20,6 +33,8 @@ SYSTEM = System(
     fmus=("lunar_descent:LunarDescent", "controllers.network_operator:NetworkOperatorController"),
     closed_loops=(ClosedLoopSpec(problems.WIRING, parameters=problems.LOOP_PARAMETERS,
                                  controller_defaults=problems.basic_law_start_values),),
+    native_plants=_native_plants,
+    native_controllers=_native_controllers,
     problems=problems.problems,
     add_commands=cli.add_commands,
 )

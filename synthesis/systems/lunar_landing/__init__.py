@@ -16,6 +16,13 @@ optimum) are computed when its FMU is built (:func:`problems.program_defaults`).
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
 from descent_fmus.synthesis.systems.lunar_landing import cli, problems
 
+
+def _native_plants() -> dict:
+    """The native plants of this system (C traced from its plant classes)."""
+    from descent_fmus.synthesis.fmi.native.builders.plant_fmu import PlantSpec
+    return {"LunarLander": PlantSpec("lunar_landing:LunarLander", "lander")}
+
+
 SYSTEM = System(
     stem="lunar_landing",
     title="S3 vertical lunar soft landing: Pontryagin + shooting, program vs feedback law",
@@ -26,5 +33,6 @@ SYSTEM = System(
                        controller_defaults=problems.program_defaults),
         ClosedLoopSpec(problems.FEEDBACK_WIRING, parameters=problems.FEEDBACK_LOOP_PARAMETERS),
     ),
+    native_plants=_native_plants,
     add_commands=cli.add_commands,
 )

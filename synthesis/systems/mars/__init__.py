@@ -10,6 +10,14 @@ through the FMUs and the alpha(t) plot, ``cli`` the ``descent-fmus mars fly`` co
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
 from descent_fmus.synthesis.systems.mars import cli, wiring
 
+
+def _native_plants() -> dict:
+    """The native plants of this system (C traced from its plant classes)."""
+    from descent_fmus.synthesis.fmi.native.builders.plant_fmu import PlantSpec
+    return {"MarsCapsule": PlantSpec("mars:MarsCapsule", "mars"),
+            "MarsCapsule6DOF": PlantSpec("mars_6dof:MarsCapsule6DOF", "mars6dof")}
+
+
 SYSTEM = System(
     stem="mars",
     title="S2 Mars capsule: Bellman/averaging angle-of-attack law (alpha with and without it)",
@@ -17,5 +25,6 @@ SYSTEM = System(
           "controllers.mars_bellman:MarsBellmanController"),
     closed_loops=(ClosedLoopSpec(wiring.WIRING, parameters=wiring.LOOP_PARAMETERS,
                                  controller_defaults=wiring.controller_defaults),),
+    native_plants=_native_plants,
     add_commands=cli.add_commands,
 )

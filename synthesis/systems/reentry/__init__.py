@@ -8,12 +8,13 @@ over the seeded sample set (statistics, racing), ``reports`` the run reports and
 bound, ``problems`` the recipes and the registered synthesis problems; the studies: ``flight``
 closed-loop flights and plots, ``bound`` the best open-loop program, ``robustness`` the
 dispersion study, ``robust_study`` the held-out study of guidance laws, ``oracle`` the
-per-sample bound, ``cli`` its commands -- and ``tests/test_reentry_*.py``.  The generic pieces
+per-sample bound, ``cli`` its commands, ``native/`` its native (C) code: the estimator,
+the on-board guidance and re-planner, the twins of its controllers -- and ``tests/test_reentry_*.py``.  The generic pieces
 it uses: the NetworkOperatorController and ProgramController FMUs, ``synthesis.methods``
 (network operator, GA, open loop).
 """
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
-from descent_fmus.synthesis.systems.reentry import cli, guidance, problems, wiring
+from descent_fmus.synthesis.systems.reentry import cli, guidance, native, problems, wiring
 
 SYSTEM = System(
     stem="reentry",
@@ -32,6 +33,8 @@ SYSTEM = System(
                   ClosedLoopSpec(guidance.GUIDED_WIRING,
                                  parameters=guidance.GUIDED_LOOP_PARAMETERS,
                                  controller_defaults=guidance.default_guided_law_values)),
+    native_plants=native.native_plants,
+    native_controllers=native.native_controllers,
     problems=problems.problems,
     add_commands=cli.add_commands,
 )

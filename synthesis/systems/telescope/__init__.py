@@ -20,6 +20,22 @@ S.A. Voronov, PhD thesis (2009), ch. 2, Examples 1-2; ch. 3, Example 3.
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
 from descent_fmus.synthesis.systems.telescope import cli, wiring
 
+
+def _native_plants() -> dict:
+    """The native plants of this system (C traced from its plant classes)."""
+    from descent_fmus.synthesis.fmi.native.builders.plant_fmu import PlantSpec
+    gyros = (1, 2, 3, 4, 5, 6)          # the structural n_gyros, traced one by one
+    return {"Telescope": PlantSpec("telescope:Telescope", "telescope", {"n_gyros": gyros}),
+            "FlexibleTelescope": PlantSpec("telescope_flexible:FlexibleTelescope", "flexible",
+                                           {"n_gyros": gyros})}
+
+
+def _native_controllers() -> dict:
+    """The native twin of the generic controller this system flies."""
+    from descent_fmus.synthesis.fmi.native.builders.controllers import GENERIC_TWINS
+    return {"ProgramController": GENERIC_TWINS["ProgramController"]}
+
+
 SYSTEM = System(
     stem="telescope",
     title="S4 orbital telescope with CMGs: reorientation and route tracing by the direct "
@@ -29,5 +45,7 @@ SYSTEM = System(
     closed_loops=(ClosedLoopSpec(wiring.WIRING, controller_defaults=wiring.rigid_program),
                   ClosedLoopSpec(wiring.FLEXIBLE_WIRING,
                                  controller_defaults=wiring.flexible_program)),
+    native_plants=_native_plants,
+    native_controllers=_native_controllers,
     add_commands=cli.add_commands,
 )

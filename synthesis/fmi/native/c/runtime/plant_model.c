@@ -2,7 +2,7 @@
  * for every plant.
  *
  * The plant's C (<plant>_plant.c, generated from the pythonfmu class by
- * synthesis/fmi/native/plant_phases.py; model_config.h names its functions PLANT_*) has five
+ * synthesis/fmi/native/tracer/plant_phases.py; model_config.h names its functions PLANT_*) has five
  * functions, the phases of the Python FMU:
  *
  *   PLANT_CHECK    check_parameters(): NULL or the ParameterError's message;

@@ -15,8 +15,8 @@ from pathlib import Path
 
 from descent_fmus.models.controllers.network_operator import DESCRIPTIONS
 from descent_fmus.models.fmu_support import SAMPLE_PERIOD_DESCRIPTION
-from descent_fmus.synthesis.fmi.native.build import Variable, build_fmu
-from descent_fmus.synthesis.fmi.native.ccode import c_identifier, law_c
+from descent_fmus.synthesis.fmi.native.builders.build import Variable, build_fmu
+from descent_fmus.synthesis.fmi.native.builders.ccode import c_identifier, law_c
 
 __all__ = ["law_variables", "build_law_fmu", "law_sources", "DEFAULT_IDENTIFIER"]
 

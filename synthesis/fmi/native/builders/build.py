@@ -27,12 +27,14 @@ from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
-__all__ = ["C_DIR", "Variable", "CompilerNotFoundError", "NativeBuildError", "find_compiler",
-           "platform_folder", "build_fmu", "compile_sources", "cached_library", "COMPILE_FLAGS",
-           "KINDS"]
+__all__ = ["C_ROOT", "C_FOLDERS", "c_file", "Variable", "CompilerNotFoundError",
+           "NativeBuildError", "find_compiler", "platform_folder", "build_fmu", "compile_sources",
+           "cached_library", "COMPILE_FLAGS", "KINDS"]
 
-#: The hand-written C files shipped as package data.
-C_DIR = Path(__file__).resolve().parent / "c"
+#: The hand-written C files shipped as package data, in folders by job: the FMI 2.0 wrapper with
+#: its vendored headers, the runtime of the traced C, the generic controllers, the C master.
+C_ROOT = Path(__file__).resolve().parent.parent / "c"
+C_FOLDERS = tuple(C_ROOT / job for job in ("fmi2", "runtime", "controllers", "master"))
 #: The FMI 2.0 headers (Modelica Association, 2-clause BSD licence) and the wrapper.
 WRAPPER_FILES = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h",
                  "native_model.h", "py_repr.h", "fmi2_cs.c")
@@ -63,6 +65,23 @@ class Variable:
     start: float = 0.0
     description: str = ""
     type: str = "Real"        #: "Real" or "Integer"
+
+
+def c_file(name) -> Path:
+    """A hand-written C file: a :class:`~pathlib.Path` as given (a system's own C), or a file name
+    found in :data:`C_FOLDERS`.
+
+    Raises
+    ------
+    FileNotFoundError
+        No such file in those folders.
+    """
+    if isinstance(name, Path):
+        return name
+    for folder in C_FOLDERS:
+        if (folder / name).is_file():
+            return folder / name
+    raise FileNotFoundError(f"no C file {name!r} in {', '.join(f.name for f in C_FOLDERS)}")
 
 
 def find_compiler() -> str | None:
@@ -126,8 +145,9 @@ def _compiled_object(cc: str, sources_dir: Path, name: str, key: str) -> Path:
 
 
 def compile_sources(sources_dir: Path, files, library: Path, compiler: str | None = None,
-                    cached=(), libraries=("m",)) -> Path:
-    """Compile ``files`` of ``sources_dir`` into the shared library ``library``.
+                    cached=(), libraries=("m",), include=()) -> Path:
+    """Compile ``files`` of ``sources_dir`` (or paths) into the shared library ``library``;
+    ``include``: more folders of headers than ``sources_dir``.
 
     ``cached``: those of ``files`` whose object may be reused from an earlier build in this
     process (the generic wrapper: it includes only the headers of :data:`WRAPPER_FILES`, which
@@ -148,8 +168,10 @@ def compile_sources(sources_dir: Path, files, library: Path, compiler: str | Non
     extra = ["-dynamiclib"] if sys.platform == "darwin" else ["-shared", "-Wl,-z,defs"]
     inputs = [str(_cached_object(cc, sources_dir, f)) if f in cached else str(sources_dir / f)
               for f in files]
-    _run([cc, *COMPILE_FLAGS, *extra, "-I", str(sources_dir), *inputs, "-o", str(library),
-          *(f"-l{name}" for name in libraries)], ", ".join(files))
+    folders = [a for d in include for a in ("-I", str(d))]
+    _run([cc, *COMPILE_FLAGS, *extra, "-I", str(sources_dir), *folders, *inputs, "-o",
+          str(library), *(f"-l{name}" for name in libraries)],
+         ", ".join(Path(f).name for f in files))
     if not library.is_file():
         raise NativeBuildError(f"{Path(cc).name} wrote no {library.name}")
     return library
@@ -160,10 +182,11 @@ _LIBRARY_LOCK = threading.Lock()
 
 def cached_library(stem: str, files, depends=(), compiler: str | None = None,
                    libraries=("m",)) -> Path:
-    """The shared library of the C ``files`` of :data:`C_DIR`, compiled on first use into the
-    cache folder (:func:`synthesis.paths.cache_dir`) under a key of the compiler, the flags and
-    the sources (``files`` and the headers ``depends`` they include), then found there.  The
-    file is written under a private name and renamed, so parallel processes are safe.
+    """The shared library of the C ``files`` (names or paths, :func:`c_file`), compiled on first
+    use into the cache folder (:func:`synthesis.paths.cache_dir`) under a key of the compiler,
+    the flags and the sources (``files`` and the headers ``depends`` they include), then found
+    there.  The file is written under a private name and renamed, so parallel processes are
+    safe.
 
     Raises
     ------
@@ -173,8 +196,9 @@ def cached_library(stem: str, files, depends=(), compiler: str | None = None,
     cc = compiler or find_compiler()
     if cc is None:
         raise CompilerNotFoundError("no C compiler found (install gcc, or set CC)")
-    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, [(n, (C_DIR / n).read_bytes()) for n in
-                                                   (*files, *depends)])).encode()).hexdigest()
+    paths = [c_file(n) for n in (*files, *depends)]
+    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, [(p.name, p.read_bytes()) for p in
+                                                   paths])).encode()).hexdigest()
     lib = cache_dir() / stem / f"{stem}-{key[:16]}{platform_folder()[1]}"
     if lib.is_file():
         return lib
@@ -184,7 +208,9 @@ def cached_library(stem: str, files, depends=(), compiler: str | None = None,
         lib.parent.mkdir(parents=True, exist_ok=True)
         tmp = lib.with_name(f".{lib.name}.{os.getpid()}.{threading.get_ident()}")
         try:               # another process may build it too: each writes its own file
-            compile_sources(C_DIR, list(files), tmp, cc, libraries=libraries)
+            folders = sorted({p.parent for p in paths})
+            compile_sources(folders[0], paths[:len(files)], tmp, cc, libraries=libraries,
+                            include=folders[1:])
             os.replace(tmp, lib)
         finally:
             tmp.unlink(missing_ok=True)
@@ -250,7 +276,7 @@ def _with_units(xml: str) -> bytes:
     its description, as for the pythonfmu FMUs) and its ``<UnitDefinitions>``."""
     from xml.etree import ElementTree as ET
 
-    from descent_fmus.synthesis.fmi.units import units_into_model_description
+    from descent_fmus.synthesis.fmi.description.units import units_into_model_description
     root = ET.fromstring(xml)
     units_into_model_description(root)
     ET.indent(root, space="  ")
@@ -278,8 +304,9 @@ def build_fmu(dest, identifier: str, description: str, variables, generated: dic
     generated : dict of str -> str
         Generated source files (name -> text), e.g. ``law.c``; ``model_config.h`` gets the GUID
         and start values appended by this function.
-    model_files : sequence of str
-        Hand-written model files of :data:`C_DIR` to ship (e.g. ``law_model.c``).
+    model_files : sequence of str or Path
+        Hand-written model files to ship (:func:`c_file`: a name, e.g. ``law_model.c``, or a
+        system's own file as a path).
     experiment : dict, optional
         Default experiment (``startTime``, ``stopTime``, ``stepSize``).
 
@@ -294,8 +321,9 @@ def build_fmu(dest, identifier: str, description: str, variables, generated: dic
         raise ValueError("native FMU variables: the Reals first, then the Integers")
     config = generated.get("model_config.h", "")
     # the GUID identifies the FMU's content: same sources, same variables -> same GUID
+    names = [c_file(f).name for f in model_files]
     digest = hashlib.sha256(repr((identifier, description, variables, sorted(generated.items()),
-                                  list(model_files))).encode()).hexdigest()
+                                  names)).encode()).hexdigest()
     guid = "{" + str(uuid.UUID(digest[:32])) + "}"
     config += (f'\n#define MODEL_CONFIG_GUID "{guid}"\n'
                f"#define MODEL_CONFIG_REAL_START "
@@ -305,7 +333,7 @@ def build_fmu(dest, identifier: str, description: str, variables, generated: dic
                + (", ".join(str(int(v.start)) for v in ints) or "0") + "\n"
                f"#define MODEL_CONFIG_INTEGER_KIND {_kind_codes(variables, 'Integer')}\n")
     files = dict(generated, **{"model_config.h": config})
-    c_files = ["fmi2_cs.c"] + [f for f in model_files if f.endswith(".c")] + \
+    c_files = ["fmi2_cs.c"] + [f for f in names if f.endswith(".c")] + \
         sorted(f for f in files if f.endswith(".c"))
     folder, suffix = platform_folder()
     with tempfile.TemporaryDirectory(prefix="descent_native_") as tmp:
@@ -313,7 +341,7 @@ def build_fmu(dest, identifier: str, description: str, variables, generated: dic
         src = root / "sources"
         src.mkdir(parents=True)
         for name in list(WRAPPER_FILES) + list(model_files):
-            shutil.copy(C_DIR / name, src / name)
+            shutil.copy(c_file(name), src / c_file(name).name)
         for name, text in files.items():
             (src / name).write_text(text)
         compile_sources(src, c_files, root / "binaries" / folder / (identifier + suffix),

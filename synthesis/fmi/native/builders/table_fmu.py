@@ -19,9 +19,9 @@ import math
 from pathlib import Path
 
 from descent_fmus.models.fmu_support import SAMPLE_PERIOD_DESCRIPTION
-from descent_fmus.synthesis.fmi.native.build import Variable, build_fmu
-from descent_fmus.synthesis.fmi.native.ccode import c_identifier
-from descent_fmus.synthesis.fmi.native.controllers import program_layout
+from descent_fmus.synthesis.fmi.native.builders.build import Variable, build_fmu
+from descent_fmus.synthesis.fmi.native.builders.ccode import c_identifier
+from descent_fmus.synthesis.fmi.native.builders.controllers import program_layout
 
 __all__ = ["build_program_fmu", "build_step_program_fmu", "landing_program_fmu",
            "hold_program_fmu", "program_of_start_values"]

@@ -25,13 +25,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from descent_fmus.models.integrators import Integrator
-from descent_fmus.synthesis.fmi.native.plant_calls import (CALL_RENDERERS, SlotLayout, SlotView,
+from descent_fmus.synthesis.fmi.native.tracer.plant_calls import (CALL_RENDERERS, SlotLayout, SlotView,
                                                            Unit, proxy_class, traced_advance_to,
                                                            traced_propagate, using_unit)
-from descent_fmus.synthesis.fmi.native.plant_codegen import Scope, render_function
-from descent_fmus.synthesis.fmi.native.plant_numpy import TRACED_NUMPY
-from descent_fmus.synthesis.fmi.native.plant_shims import own_modules, patched
-from descent_fmus.synthesis.fmi.native.plant_trace import (Source, Sym, TraceError, Tracer,
+from descent_fmus.synthesis.fmi.native.tracer.plant_codegen import Scope, render_function
+from descent_fmus.synthesis.fmi.native.tracer.plant_numpy import TRACED_NUMPY
+from descent_fmus.synthesis.fmi.native.tracer.plant_shims import own_modules, patched
+from descent_fmus.synthesis.fmi.native.tracer.plant_trace import (Source, Sym, TraceError, Tracer,
                                                            check_python, explore, operand)
 
 __all__ = ["Interface", "trace_plant", "PlantCode", "interface_of"]

@@ -40,8 +40,8 @@ from descent_fmus.models.controllers.reentry_replan import (FD_STEP, MISS_SCALE,
                                                             plan_value)
 from descent_fmus.models.integrators import DIVERGED, EVENT, OK
 from descent_fmus.models.reentry import U_BOUNDS, ReentryParams, altitude, downrange
-from descent_fmus.synthesis.fmi.native.plant_codegen import literal
-from descent_fmus.synthesis.fmi.native.plant_trace import Tracer, explore
+from descent_fmus.synthesis.fmi.native.tracer.plant_codegen import literal
+from descent_fmus.synthesis.fmi.native.tracer.plant_trace import Tracer, explore
 
 __all__ = ["trace_guidance", "trace_npc", "guidance_constants", "OUTCOMES"]
 
@@ -59,7 +59,7 @@ def _writes(value, scope, ind):
 
 
 def _trace(code, stem: str, body) -> None:
-    from descent_fmus.synthesis.fmi.native.plant_trace import operand
+    from descent_fmus.synthesis.fmi.native.tracer.plant_trace import operand
     tracer = Tracer(f"{code.prefix} {stem}")
     tree = explore(tracer, lambda: [operand(v) for v in body(tracer)])
     code._function(stem, _signature("@NAME@"), ("r", "iv", "in", "out"), tracer, tree,

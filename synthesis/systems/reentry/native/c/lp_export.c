@@ -1,5 +1,5 @@
 /* lp_export.c -- lp.h's solver as a shared library, for checking it against SciPy's HiGHS and
- * timing it from Python (synthesis/fmi/native/onboard_lp.py); the FMUs include lp.h directly.
+ * timing it from Python (synthesis/systems/reentry/native/onboard_lp.py); the FMUs include lp.h directly.
  *
  * descent-fmus (MIT licence).
  */

@@ -21,7 +21,7 @@ import sys
 import types
 from contextlib import contextmanager
 
-from descent_fmus.synthesis.fmi.native.plant_trace import (Sym, TraceError, active, evaluate,
+from descent_fmus.synthesis.fmi.native.tracer.plant_trace import (Sym, TraceError, active, evaluate,
                                                            is_sym)
 
 __all__ = ["TRACED_MATH", "patched", "own_modules", "evaluate", "C_FUNCTIONS", "BINARY_C",

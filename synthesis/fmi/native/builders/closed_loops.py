@@ -17,15 +17,15 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-from descent_fmus.synthesis.fmi.native.controllers import (NATIVE_CONTROLLERS,
-                                                           build_native_controllers)
+from descent_fmus.synthesis.fmi.native.builders.controllers import build_native_controllers
 
 __all__ = ["build_native_closed_loops", "build_native_fmus"]
 
 
-def build_native_closed_loops(specs, native_dir, say=print) -> list[Path]:
+def build_native_closed_loops(specs, native_dir, controllers, say=print) -> list[Path]:
     """The native closed loops of ``specs`` whose twins are in ``native_dir`` (see the module
-    docstring); the paths of the FMUs written (closed loops and their own controllers)."""
+    docstring; ``controllers``: the twin builders by model identifier, for a loop's own
+    controller); the paths of the FMUs written (closed loops and their own controllers)."""
     native_dir, built = Path(native_dir), []
     for spec in specs:
         w = spec.wiring
@@ -34,12 +34,12 @@ def build_native_closed_loops(specs, native_dir, say=print) -> list[Path]:
             continue
         t0 = time.perf_counter()
         if spec.controller_defaults is not None:
-            if w.controller not in NATIVE_CONTROLLERS:
+            if w.controller not in controllers:
                 say(f"native/{w.name}.fmu skipped: no native builder for {w.controller} with "
                     f"other start values")
                 continue
-            ctrl = NATIVE_CONTROLLERS[w.controller](native_dir / f"{w.name}Controller.fmu",
-                                                    defaults=spec.controller_defaults())
+            ctrl = controllers[w.controller](native_dir / f"{w.name}Controller.fmu",
+                                             defaults=spec.controller_defaults())
             built.append(ctrl)
         fmu, ssp = spec.write(plant, ctrl, native_dir)
         built.append(fmu)
@@ -47,11 +47,11 @@ def build_native_closed_loops(specs, native_dir, say=print) -> list[Path]:
     return built
 
 
-def build_native_fmus(native_dir, specs, say=print) -> list[Path]:
-    """What ``build_fmus.py`` builds into ``fmus/native/``: the native twins of the generic
-    controllers, then the closed loops of ``specs`` whose plant and controller have twins
-    there.  Without a C compiler: one line, nothing built."""
-    built = build_native_controllers(native_dir, say=say)
+def build_native_fmus(native_dir, controllers, specs, say=print) -> list[Path]:
+    """What ``build_fmus.py`` builds into ``fmus/native/`` after the plants: the native twins
+    ``controllers`` (model identifier -> builder), then the closed loops of ``specs`` whose
+    plant and controller have twins there.  Without a C compiler: one line, nothing built."""
+    built = build_native_controllers(native_dir, controllers, say=say)
     if built:
-        built += build_native_closed_loops(specs, native_dir, say)
+        built += build_native_closed_loops(specs, native_dir, controllers, say)
     return built

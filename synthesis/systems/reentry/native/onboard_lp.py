@@ -35,9 +35,10 @@ class LpResult:
 def _dll(compiler: str | None = None):
     with _LOCK:
         if not _DLL:
-            from descent_fmus.synthesis.fmi.native.build import cached_library
-            dll = ctypes.CDLL(str(cached_library("onboard-lp", ["lp_export.c"], ["lp.h"],
-                                                 compiler)))
+            from descent_fmus.synthesis.fmi.native.builders.build import cached_library
+            from descent_fmus.synthesis.systems.reentry.native.controllers import C_DIR
+            dll = ctypes.CDLL(str(cached_library("onboard-lp", [C_DIR / "lp_export.c"],
+                                                 [C_DIR / "lp.h"], compiler)))
             arr = np.ctypeslib.ndpointer(np.float64, flags="C_CONTIGUOUS")
             i = ctypes.c_int
             dll.descent_lp_solve.restype = i

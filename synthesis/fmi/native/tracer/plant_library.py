@@ -16,9 +16,9 @@ import dataclasses
 import importlib
 import inspect
 
-from descent_fmus.synthesis.fmi.native.plant_codegen import Scope, render_function
-from descent_fmus.synthesis.fmi.native.plant_shims import patched
-from descent_fmus.synthesis.fmi.native.plant_trace import (TraceError, Tracer, explore,
+from descent_fmus.synthesis.fmi.native.tracer.plant_codegen import Scope, render_function
+from descent_fmus.synthesis.fmi.native.tracer.plant_shims import patched
+from descent_fmus.synthesis.fmi.native.tracer.plant_trace import (TraceError, Tracer, explore,
                                                            operand)
 
 __all__ = ["export_functions", "params_macros", "resolve"]

@@ -1,7 +1,7 @@
 /* plant_runtime.h -- the hand-written part of every descent-fmus native plant (written once).
  *
  * The plant-specific C (<plant>_plant.c, generated from the model's Python functions by
- * synthesis/fmi/native/plant_codegen.py) computes with the functions below; the stepping loops
+ * synthesis/fmi/native/tracer/plant_codegen.py) computes with the functions below; the stepping loops
  * mirror models/integrators.py and models/rk4_input.py operation for operation:
  *
  *   pc_advance_to    -- advance_to(): RK4 sub-steps dividing the span evenly, the event located

@@ -17,8 +17,8 @@ Python's behaviour as long as nothing that may raise follows the first write, wh
 """
 from __future__ import annotations
 
-from descent_fmus.synthesis.fmi.native.plant_codegen import Scope, literal, render_function
-from descent_fmus.synthesis.fmi.native.plant_trace import (MAY_RAISE, Sym, TraceError, Tracer,
+from descent_fmus.synthesis.fmi.native.tracer.plant_codegen import Scope, literal, render_function
+from descent_fmus.synthesis.fmi.native.tracer.plant_trace import (MAY_RAISE, Sym, TraceError, Tracer,
                                                            active, explore, operand, _STACK)
 
 __all__ = ["Unit", "SlotLayout", "SlotView", "traced_advance_to", "traced_propagate",

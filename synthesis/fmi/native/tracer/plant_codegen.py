@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import math
 
-from descent_fmus.synthesis.fmi.native.plant_shims import BINARY_C, C_FUNCTIONS
-from descent_fmus.synthesis.fmi.native.plant_trace import (MAY_RAISE, Node, Source, Sym,
+from descent_fmus.synthesis.fmi.native.tracer.plant_shims import BINARY_C, C_FUNCTIONS
+from descent_fmus.synthesis.fmi.native.tracer.plant_trace import (MAY_RAISE, Node, Source, Sym,
                                                             TraceError)
 
 __all__ = ["Scope", "literal", "render_function", "c_string", "message_lines"]

@@ -106,7 +106,7 @@ def base_unit(unit: str) -> tuple[dict, float] | None:
 
 
 def _unit_definitions(units) -> ET.Element:
-    """``<UnitDefinitions>`` of the unit names ``units`` (SI exponents from synthesis.fmi.units)."""
+    """``<UnitDefinitions>`` of the unit names ``units`` (SI exponents: :func:`base_unit`)."""
     defs = ET.Element("UnitDefinitions")
     for name in sorted(units):
         unit = ET.SubElement(defs, "Unit", {"name": name})

@@ -1,7 +1,7 @@
 /* estimator.h -- S1's drag-factor estimator in a native controller (DragEstimator,
  * SensedNetworkOperatorController): the life of models.controllers.drag_estimator.
  * DragFactorEstimator around its generated C (<prefix>_sensing.c, traced from the Python
- * estimator by synthesis/fmi/native/sensing.py; model_config.h names it SENSING_*).
+ * estimator by synthesis/systems/reentry/native/sensing.py; model_config.h names it SENSING_*).
  *
  * What is written here is the plumbing the tracer cannot see: the state between calls, the
  * constructor's start (sums 0, no sample yet, the generator seeded with noise_seed as

@@ -133,11 +133,11 @@ def build_pythonfmu(source: Path, cls: str, dest_dir: Path) -> Path:
 def _native_sources(cls, path: Path, dest: Path, compiler=None) -> Path:
     """Trace ``cls`` and compile its native FMU at ``dest``; a construct the tracer cannot
     follow is a PlantFileError naming the line."""
-    from descent_fmus.synthesis.fmi.native.plant_fmu import PlantSpec, build_plant_fmu
-    from descent_fmus.synthesis.fmi.native.plant_trace import TraceError
+    from descent_fmus.synthesis.fmi.native.builders.plant_fmu import PlantSpec, build_plant_fmu
+    from descent_fmus.synthesis.fmi.native.tracer.plant_trace import TraceError
     spec = PlantSpec(cls, _prefix(cls.__name__))
     try:
-        return build_plant_fmu(cls.__name__, dest, compiler, spec=spec)
+        return build_plant_fmu(cls.__name__, dest, spec, compiler)
     except TraceError as exc:
         where, line = _where(exc, path)
         raise PlantFileError(f"{where or path}: the native twin cannot be generated: {exc}"
@@ -163,8 +163,8 @@ def build_plant(path, dest=None, check: bool = True, class_name: str | None = No
     PlantFileError
         The file, its class, or a construct the tracer cannot follow (nothing written).
     """
-    from descent_fmus.synthesis.fmi.native.build import find_compiler
-    from descent_fmus.synthesis.fmi.native.plant_trace import TraceError, check_python
+    from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
+    from descent_fmus.synthesis.fmi.native.tracer.plant_trace import TraceError, check_python
     from descent_fmus.synthesis.fmi.native_loop import NATIVE_DIR
     path = Path(path)
     dest = Path(dest) if dest is not None else path.parent
@@ -186,7 +186,7 @@ def build_plant(path, dest=None, check: bool = True, class_name: str | None = No
         t0 = time.perf_counter()
         built = None
         if reason is None:
-            from descent_fmus.synthesis.fmi.native.build import NativeBuildError
+            from descent_fmus.synthesis.fmi.native.builders.build import NativeBuildError
             try:
                 built = _native_sources(cls, path, Path(tmp) / f"{ident}.fmu", compiler)
             except NativeBuildError as exc:          # the generated C: a defect, reported
@@ -219,7 +219,7 @@ def build_plant(path, dest=None, check: bool = True, class_name: str | None = No
 def _check_in_child(py: Path, native: Path, steps: int, step: float | None) -> dict:
     """:func:`check_twins` in a child process (the pythonfmu FMU's Python modules load there,
     apart from the build's)."""
-    cmd = [sys.executable, "-m", "descent_fmus.synthesis.fmi.native.user_plant", str(py),
+    cmd = [sys.executable, "-m", "descent_fmus.synthesis.fmi.user_plant", str(py),
            str(native), str(steps), repr(step if step is not None else 0.0)]
     r = subprocess.run(cmd, capture_output=True, text=True)
     lines = [ln for ln in r.stdout.splitlines() if ln.startswith("{")]
@@ -255,7 +255,7 @@ def check_twins(py_fmu, native_fmu, steps: int = CHECK_STEPS, step: float | None
     output at every communication point bit for bit (the variables by name: the value
     references differ): ``{"equal", "flights", "points", "outputs", "step", "mismatch" (the
     first difference, if any), "statuses"}``."""
-    from descent_fmus.synthesis.fmi.closed_loop import load_slave
+    from descent_fmus.synthesis.fmi.slave import load_slave
     fmus = [load_slave(p, name, []) for p, name in ((py_fmu, "py"), (native_fmu, "c"))]
     md = fmus[0].model
     de = md.defaultExperiment

@@ -16,8 +16,8 @@ from __future__ import annotations
 import numpy as np
 
 from descent_fmus.models.traceable import where
-from descent_fmus.synthesis.fmi.native.plant_shims import TRACED_MATH
-from descent_fmus.synthesis.fmi.native.plant_trace import Sym, TraceError, active, operand
+from descent_fmus.synthesis.fmi.native.tracer.plant_shims import TRACED_MATH
+from descent_fmus.synthesis.fmi.native.tracer.plant_trace import Sym, TraceError, active, operand
 
 __all__ = ["TRACED_NUMPY", "LINALG_CALLS"]
 

@@ -1,0 +1,285 @@
+"""Closed loops as one FMU: fmpy container FMUs of a plant and a controller, and SSP files.
+
+* :func:`closed_loop_fmu` -- plant + controller composed by fmpy's container-FMU support into one
+  FMU that ``fmpy simulate`` runs directly;
+* :func:`refine_container` -- a copy of a closed-loop FMU on a finer communication grid;
+* :func:`write_ssp` -- an SSP 1.0 archive (SystemStructure.ssd + the two FMUs) of the same system,
+  for tools that read SSP; it is checked against the SSP schema by ``fmpy.ssp.ssd.read_ssd``.
+"""
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import attrs
+from fmpy import read_model_description
+
+from descent_fmus.synthesis.fmi.closed_loop import Wiring
+from descent_fmus.synthesis.fmi.compose import add_units, rewrite_archive
+from descent_fmus.synthesis.paths import require_fmu
+
+__all__ = ["closed_loop_fmu", "refine_container", "write_ssp"]
+
+
+def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path,
+                    parameters: tuple = (), starts: bool = True) -> Path:
+    """Compose plant and controller into one container FMU with fmpy (``fmpy.container_fmu``).
+
+    Parameters
+    ----------
+    wiring : Wiring
+        Connections, communication step (= the container's fixed step) and exposed outputs.
+    plant_fmu, controller_fmu : path-like
+        Component FMUs (their file stems must equal their model identifiers).
+    dest : path-like
+        Output ``.fmu`` file.
+    parameters : tuple of (str, str, str)
+        (container name, "plant" | "controller", component variable) parameters to expose.
+    starts : bool
+        False: the exposed parameters carry no start value -- a container for evaluation only
+        (``synthesis.fmi.container_loop``), whose reset then leaves them at the components' own defaults
+        instead of setting each one again (fmpy's container sets every start value on reset).
+    """
+    from fmpy.container_fmu.config import Configuration
+
+    plant_fmu, controller_fmu, dest = require_fmu(plant_fmu), require_fmu(controller_fmu), Path(dest)
+    parts = _Components(plant_fmu, controller_fmu)
+    parameters = tuple(parameters)
+    if (wiring.to_controller and "sample_period" in parts.cvars["controller"]
+            and "sample_period" not in {c for c, _, _ in parameters}):
+        # a feedback controller samples at the wiring's step whatever the container's step
+        # (refine_container: finer output with the controller at its own period)
+        parameters += (("sample_period", "controller", "sample_period"),)
+    variables, mappings, outputs = _container_variables(wiring, parts, parameters, starts)
+    connections = _connections(wiring, parts)
+    md = _container_description(wiring, parts, variables, outputs)
+    config = Configuration(parallelDoStep=False, modelDescription=md,
+                           components=[parts.comps["plant"], parts.comps["controller"]],
+                           connections=connections, variableMappings=mappings)
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    return _create_container(config, parts, wiring.name, dest)
+
+
+class _Components:
+    """The two components of a container FMU (roles ``"plant"`` and ``"controller"``): their
+    model descriptions ``mds``, fmpy ``Component`` records ``comps`` and variables by name
+    ``cvars``."""
+
+    def __init__(self, plant_fmu: Path, controller_fmu: Path):
+        from fmpy.container_fmu.config import Component
+        self.paths = {"plant": plant_fmu, "controller": controller_fmu}
+        self.mds = {role: read_model_description(str(path)) for role, path in self.paths.items()}
+        self.comps = {role: Component(name=role, filename=path, modelDescription=self.mds[role])
+                      for role, path in self.paths.items()}
+        self.cvars = {role: {v.name: v for v in md.modelVariables}
+                      for role, md in self.mds.items()}
+
+    def var(self, role: str, name: str):
+        """The variable ``name`` of the component ``role``.
+
+        Raises
+        ------
+        KeyError
+            The component has no such variable (the message names the model).
+        """
+        try:
+            return self.cvars[role][name]
+        except KeyError:
+            raise KeyError(f"{self.mds[role].modelName} has no variable {name!r}") from None
+
+
+def _container_variables(wiring: Wiring, parts: _Components, parameters: tuple,
+                         starts: bool) -> tuple:
+    """The container's variables: ``time``, the exposed parameters (the controller's
+    ``sample_period`` starts at the wiring's step; the others at the component's start value,
+    or none if not ``starts``) and the wiring's exposed outputs.  Returns the variables, their
+    mappings onto the components' variables and the outputs (``Unknown`` records)."""
+    from fmpy.model_description import ModelVariable, Unknown
+
+    variables = [ModelVariable(type="Real", variability="continuous", causality="independent",
+                               name="time", description="time [s]")]
+    mappings, outputs = {}, []
+    for cname, role, vname in parameters:
+        src = parts.var(role, vname)
+        start = (repr(float(wiring.step)) if (role, vname) == ("controller", "sample_period")
+                 else src.start if starts else None)
+        v = ModelVariable(type=src.type, variability="fixed", causality="parameter",
+                          initial="exact", name=cname, start=start,
+                          description=src.description)
+        variables.append(v)
+        mappings[v] = [(parts.comps[role], src)]
+    for cname, role, vname in wiring.exposed:
+        src = parts.var(role, vname)
+        v = ModelVariable(type=src.type,
+                          variability="discrete" if src.type == "Integer" else "continuous",
+                          causality="output", initial="calculated", name=cname,
+                          description=src.description)
+        variables.append(v)
+        mappings[v] = [(parts.comps[role], src)]
+        outputs.append(Unknown(variable=v))
+    return variables, mappings, outputs
+
+
+def _connections(wiring: Wiring, parts: _Components) -> list:
+    """The wiring's connections, plant -> controller first: the controller then reads y(t) when
+    u is copied, the master algorithm of :mod:`synthesis.fmi.closed_loop`."""
+    from fmpy.container_fmu.config import Connection
+
+    def conn(src_role, a, dst_role, b):
+        # fmpy 0.3.32 writes a connection's type verbatim but its container reads FMI 3 type
+        # names (Float64, Int32): hand it connectors that carry those names.
+        va, vb = parts.var(src_role, a), parts.var(dst_role, b)
+        kind = {"Real": "Float64", "Integer": "Int32"}.get(va.type, va.type)
+        return Connection(parts.comps[src_role], [attrs.evolve(va, type=kind)],
+                          parts.comps[dst_role], [attrs.evolve(vb, type=kind)])
+
+    connections = [conn("plant", a, "controller", b) for a, b in wiring.to_controller]
+    connections += [conn("controller", a, "plant", b) for a, b in wiring.to_plant]
+    return connections
+
+
+def _container_description(wiring: Wiring, parts: _Components, variables: list,
+                           outputs: list):
+    """The container's model description: fixed internal step = the wiring's step, the
+    default experiment of the wiring."""
+    from fmpy.model_description import (CoSimulation, DefaultExperiment, ModelDescription,
+                                        Unknown)
+    mds = parts.mds
+    return ModelDescription(
+        fmiVersion="2.0", modelName=wiring.name, instantiationToken=f"{{{uuid.uuid4()}}}",
+        description=wiring.description or f"{mds['plant'].modelName} + "
+                                          f"{mds['controller'].modelName} in closed loop",
+        generationTool="descent-fmus (fmpy container FMU)",
+        variableNamingConvention="structured",
+        defaultExperiment=DefaultExperiment(startTime="0", stopTime=repr(wiring.stop_time),
+                                            stepSize=repr(wiring.step)),
+        coSimulation=CoSimulation(modelIdentifier="container_fmu",
+                                  fixedInternalStepSize=wiring.step),
+        modelVariables=variables, outputs=outputs,
+        initialUnknowns=[Unknown(variable=u.variable) for u in outputs])
+
+
+def _create_container(config, parts: _Components, name: str, dest: Path) -> Path:
+    """Write the container FMU of ``config`` to ``dest`` with fmpy, the components' units in
+    its variables' descriptions."""
+    from fmpy.container_fmu.cli import create_container_fmu
+
+    with tempfile.TemporaryDirectory(prefix="descent_container_") as tmp:
+        # the container resolves components by file stem: copy them under their identifiers
+        for role, path in parts.paths.items():
+            ident = parts.mds[role].coSimulation.modelIdentifier
+            target = Path(tmp) / "src" / f"{ident}.fmu"
+            target.parent.mkdir(exist_ok=True)
+            shutil.copy(path, target)
+            parts.comps[role].filename = target
+        work = Path(tmp) / "work"
+        work.mkdir()
+        out = Path(tmp) / f"{name}.fmu"
+        create_container_fmu(config, work, out)
+        add_units(out)      # the variables' descriptions carry the components' units
+        shutil.move(str(out), dest)
+    return dest
+
+
+def refine_container(src_fmu: Path, dst_fmu: Path, step: float) -> Path:
+    """Copy a closed-loop container FMU with a finer internal step ``step`` [s].
+
+    fmpy's container steps every component with one fixed step and accepts communication steps
+    (``fmpy simulate --output-interval``) that are multiples of it.  The copy runs the plant on
+    ``step``; the controller keeps sampling at its own period (the container's parameter
+    ``sample_period``, by default the closed loop's step), so the output is finer and the
+    control the same.  The plant's integration sub-steps become at most ``step``: results at
+    the sample instants move by the plant's integration error only.
+    """
+    src_fmu, dst_fmu = require_fmu(src_fmu), Path(dst_fmu)
+    step = float(step)
+    if not (step > 0.0 and step < float("inf")):
+        raise ValueError(f"the internal step must be finite and > 0, got {step!r}")
+    md = read_model_description(str(src_fmu))
+    if md.coSimulation is None or md.coSimulation.modelIdentifier != "container_fmu":
+        raise ValueError(f"{src_fmu} is not a closed-loop container FMU (fmpy container)")
+    names = {v.name for v in md.modelVariables}
+    with zipfile.ZipFile(src_fmu) as z:
+        config = json.loads(z.read("resources/container.json"))
+    feedback = len({c["srcComponent"] for c in config["connections"]}) > 1
+    if feedback and "sample_period" not in names:
+        raise ValueError(f"{src_fmu.name} has no parameter sample_period: its controller "
+                         f"would act at every internal step; rebuild it (python "
+                         f"build_fmus.py) and refine the new one")
+    config["fixedStepSize"] = step
+    text = json.dumps(config, indent=4).encode()
+    dst_fmu.parent.mkdir(parents=True, exist_ok=True)
+    return rewrite_archive(src_fmu, dst_fmu, lambda item, data: [
+        (item, text if item.filename == "resources/container.json" else data)])
+
+
+_SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
+_SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
+
+
+def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path) -> Path:
+    """Write an SSP 1.0 archive of the closed loop (SystemStructure.ssd + resources/*.fmu)."""
+    plant_fmu, controller_fmu, dest = require_fmu(plant_fmu), require_fmu(controller_fmu), Path(dest)
+    ET.register_namespace("ssd", _SSD_NS)
+    ET.register_namespace("ssc", _SSC_NS)
+    q = lambda ns, tag: f"{{{ns}}}{tag}"  # noqa: E731
+    root = ET.Element(q(_SSD_NS, "SystemStructureDescription"),
+                      {"version": "1.0", "name": wiring.name,
+                       "generationTool": "descent-fmus"})
+    system = ET.SubElement(root, q(_SSD_NS, "System"), {"name": wiring.name})
+    if wiring.description:
+        system.set("description", wiring.description)
+    elements = ET.SubElement(system, q(_SSD_NS, "Elements"))
+    conns = ET.SubElement(system, q(_SSD_NS, "Connections"))
+    used = {"plant": set(a for a, _ in wiring.to_controller) | set(b for _, b in wiring.to_plant),
+            "controller": set(b for _, b in wiring.to_controller) |
+                          set(a for a, _ in wiring.to_plant)}
+    used["plant"] |= {v for _, r, v in wiring.exposed if r == "plant"}
+    from descent_fmus.synthesis.fmi.description.units import base_unit
+    units = set()
+    for role, path in (("plant", plant_fmu), ("controller", controller_fmu)):
+        md = read_model_description(str(path))
+        comp = ET.SubElement(elements, q(_SSD_NS, "Component"),
+                             {"name": role, "type": "application/x-fmu-sharedlibrary",
+                              "source": f"resources/{path.name}"})
+        cons = ET.SubElement(comp, q(_SSD_NS, "Connectors"))
+        for v in md.modelVariables:
+            if v.name in used[role]:
+                kind = {"input": "input", "output": "output"}.get(v.causality, "parameter")
+                c = ET.SubElement(cons, q(_SSD_NS, "Connector"), {"name": v.name, "kind": kind})
+                t = ET.SubElement(c, q(_SSC_NS, v.type))
+                # SSP units need SI exponents: a unit FMI 2.0 cannot state stays off
+                if v.type == "Real" and v.unit and base_unit(v.unit) is not None:
+                    t.set("unit", v.unit)
+                    units.add(v.unit)
+    for a, b in wiring.to_controller:
+        ET.SubElement(conns, q(_SSD_NS, "Connection"), {"startElement": "plant",
+                      "startConnector": a, "endElement": "controller", "endConnector": b})
+    for a, b in wiring.to_plant:
+        ET.SubElement(conns, q(_SSD_NS, "Connection"), {"startElement": "controller",
+                      "startConnector": a, "endElement": "plant", "endConnector": b})
+    if units:                      # ssd:Units comes between ssd:System and DefaultExperiment
+        ud = ET.SubElement(root, q(_SSD_NS, "Units"))
+        for name in sorted(units):
+            exps, factor = base_unit(name)
+            u = ET.SubElement(ud, q(_SSC_NS, "Unit"), {"name": name})
+            bu = {b: str(e) for b, e in exps.items()}
+            if factor != 1.0:
+                bu["factor"] = repr(factor)
+            ET.SubElement(u, q(_SSC_NS, "BaseUnit"), bu)
+    ET.SubElement(root, q(_SSD_NS, "DefaultExperiment"),
+                  {"startTime": "0", "stopTime": repr(wiring.stop_time)})
+    dest.parent.mkdir(parents=True, exist_ok=True)
+    tmp = dest.with_suffix(".ssp.tmp")
+    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("SystemStructure.ssd",
+                   ET.tostring(root, encoding="UTF-8", xml_declaration=True))
+        z.write(plant_fmu, f"resources/{plant_fmu.name}")
+        z.write(controller_fmu, f"resources/{controller_fmu.name}")
+    tmp.replace(dest)
+    return dest

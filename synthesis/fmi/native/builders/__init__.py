@@ -1,0 +1,14 @@
+"""The builders of native FMUs: C sources + the generic FMI 2.0 wrapper, compiled here.
+
+* :mod:`.build` -- the compiler, the C folders by job (:func:`.build.c_file`) and the FMU
+  writer (model description, sources, binary);
+* :mod:`.ccode` -- the operation table rendered to C; a law as a straight-line C function;
+* :mod:`.controllers` -- the native twins of the generic controllers (the network-operator
+  interpreter, the program-table player) and the twin builder the systems' own twins use;
+* :mod:`.law_fmu`, :mod:`.table_fmu` -- a law, a program table as a native FMU;
+* :mod:`.plant_fmu` -- a plant as a native FMU (C traced by :mod:`..tracer`);
+* :mod:`.closed_loops` -- the container FMUs and SSP files of native closed loops.
+
+What each system builds natively is named by its ``System`` record (``native_plants``,
+``native_controllers``); the builders take it as arguments and know no system.
+"""
