@@ -30,9 +30,7 @@ from pathlib import Path
 
 from native_paths import fmus_and_twins, machine, print_rates, rates
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
-from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop
-from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
+from descent_fmus.synthesis.fmi.loop import open_loop
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
@@ -79,10 +77,11 @@ def main(argv=None):
     plant, ctrl, twins = fmus_and_twins(problem, args.fmus)
     values = NetworkOperator.load(GUIDED_LAW).start_values()
     states = problem.initial_states
-    loops = {"pythonfmu, Python master": ClosedLoop(problem.wiring, plant, ctrl),
-             "native, Python master": ClosedLoop(problem.wiring, *twins),
-             "native, fmpy container": NativeContainerLoop(problem.wiring, *twins),
-             "native, C master (evaluator)": CMasterLoop(problem.wiring, *twins)}
+    w = problem.wiring
+    loops = {"pythonfmu, Python master": open_loop(w, plant, ctrl, "master"),
+             "native, Python master": open_loop(w, *twins, "native-master"),
+             "native, fmpy container": open_loop(w, *twins, "native-container"),
+             "native, C master (evaluator)": open_loop(w, *twins, "native-c")}
     try:
         paths = {name: Flier(loop, states, values) for name, loop in loops.items()}
         want = paths["pythonfmu, Python master"].finals

@@ -91,14 +91,14 @@ def main(argv=None):
         out["size_ratio_full_to_compact"] = full_per_law / (out["compact_total_MB"] * 2 ** 20
                                                             / len(laws))
         # one closed-loop flight: pythonfmu controller vs native law (the same law)
-        from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+        from descent_fmus.synthesis.fmi.loop import open_loop
         law = NetworkOperator.load(Path(__file__).resolve().parent.parent / "tests" /
                                    "reference" / "reentry_best_law.json")
         native = export_law_files(law, tmp / "flight", law_fmu="native")["controller_fmu"]
         times = {}
         for name, ctrl, sv in (("pythonfmu", args.fmus / "NetworkOperatorController.fmu",
                                 law.start_values()), ("native", native, {})):
-            with ClosedLoop(problem.wiring, args.fmus / "Reentry.fmu", ctrl) as loop:
+            with open_loop(problem.wiring, args.fmus / "Reentry.fmu", ctrl, "master") as loop:
                 loop.run(controller_values=sv)
                 ts = []
                 for _ in range(10):

@@ -34,9 +34,8 @@ from pathlib import Path
 from fmpy import extract, read_model_description
 
 from descent_fmus.synthesis.fmi.c_master_loop import STOP_OPS, STOP_TYPES
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.loop import open_loop
 from descent_fmus.synthesis.fmi.native.builders.build import COMPILE_FLAGS, c_file, find_compiler
-from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.run.flights import LawFlyer
@@ -82,7 +81,7 @@ class Master:
 
     def __init__(self, problem, plant, ctrl, laws):
         self.state, self.laws = problem.initial_states[0], laws
-        self.loop = ClosedLoop(problem.wiring, plant, ctrl)
+        self.loop = open_loop(problem.wiring, plant, ctrl, "master")
         self.final = self.loop.run(self.state, laws[0].start_values()).final
 
     def rate(self, seconds: float) -> float:
@@ -225,7 +224,8 @@ def main(argv=None):
         paths = {"pythonfmu, Python master": Master(problem, plant, ctrl, laws),
                  "native, Python master": Master(problem, *twins, laws),
                  "native, fmpy container": Evaluator(
-                     problem, plant, ctrl, laws, NativeContainerLoop(problem.wiring, *twins)),
+                     problem, plant, ctrl, laws,
+                     open_loop(problem.wiring, *twins, "native-container")),
                  "native, C master (evaluator)": Evaluator(problem, plant, ctrl, laws),
                  "native, pure C master": CMaster(problem, *twins, laws[0], Path(tmp))}
         want = paths["pythonfmu, Python master"].final

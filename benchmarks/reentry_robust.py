@@ -30,10 +30,9 @@ import statistics
 import time
 from pathlib import Path
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.loop import open_loop
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.paths import fmu_dir
-from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
 from descent_fmus.synthesis.problems.runner import Runner
 from descent_fmus.synthesis.methods.registry import make_method
 from descent_fmus.synthesis.systems.reentry.problems import set_problems
@@ -50,8 +49,8 @@ def _set_times(loop, problem, law):
 def container_vs_master(problem, fmus: Path, repeat: int) -> dict:
     plant, ctrl = problem.fmu_paths(fmus)
     law = problem.basic()
-    master, container = ClosedLoop(problem.wiring, plant, ctrl), \
-        ContainerLoop(problem.wiring, plant, ctrl)
+    master, container = open_loop(problem.wiring, plant, ctrl, "master"), \
+        open_loop(problem.wiring, plant, ctrl, "container")
     try:
         _set_times(master, problem, law)
         _set_times(container, problem, law)          # warm-up

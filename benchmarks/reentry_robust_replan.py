@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.loop import open_loop
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.systems.reentry.error_families import FAMILIES, family_samples
 from descent_fmus.synthesis.systems.reentry.guidance import GUIDED_WIRING, default_guided_law
@@ -35,15 +35,15 @@ OPTIONS = {"single correction c (replan = 0)": {"replan": 0},
 def _loops(fmus: Path) -> dict:
     """The two paths: the pythonfmu FMUs on the Python master, the native twins on the C
     master (absent without a compiler or the twins)."""
-    loops = {"pythonfmu, Python master": ClosedLoop(GUIDED_WIRING, fmus / "Reentry.fmu",
-                                                    fmus / "GuidedNetworkOperatorController.fmu")}
+    loops = {"pythonfmu, Python master": open_loop(GUIDED_WIRING, fmus / "Reentry.fmu",
+                                                   fmus / "GuidedNetworkOperatorController.fmu",
+                                                   "master")}
     native = fmus / "native"
     if (native / "GuidedNetworkOperatorController.fmu").is_file():
         try:
-            from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop
-            loops["native, C master"] = CMasterLoop(
+            loops["native, C master"] = open_loop(
                 GUIDED_WIRING, native / "Reentry.fmu",
-                native / "GuidedNetworkOperatorController.fmu")
+                native / "GuidedNetworkOperatorController.fmu", "native-c")
         except Exception as exc:                 # no compiler: the Python path alone
             print(f"native path skipped: {exc}")
     return loops

@@ -15,6 +15,7 @@ import pytest
 from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop, MasterUnavailable, master_library
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
 from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop, native_fmus
+from descent_fmus.synthesis.fmi.start_values import StartValues
 
 pytestmark = pytest.mark.skipif(shutil.which("cc") is None and shutil.which("gcc") is None,
                                 reason="needs a C compiler")
@@ -48,11 +49,11 @@ def test_c_master_equals_the_python_master_and_the_container(name, fmu_dir):
     with ClosedLoop(problem.wiring, *twins) as py:
         want = [py.run(s, law.start_values()) for s in states]
     with NativeContainerLoop(problem.wiring, *twins) as box:
-        boxed = [box.run(s, law.start_array()).final for s in states]
+        boxed = [box.run(s, StartValues.of_law(law)).final for s in states]
     with CMasterLoop(problem.wiring, *twins) as cm:
         for _ in range(2):
             for s, w, b in zip(states, want, boxed):
-                got = cm.run(s, law.start_array())
+                got = cm.run(s, StartValues.of_law(law))
                 _same(got.final, w.final)
                 _same(got.final, b)
                 assert (got.steps, got.stopped, got.t_final) == (w.steps, w.stopped, w.t_final)
@@ -82,6 +83,7 @@ def test_c_master_runs_every_native_closed_loop(fmu_dir):
 
 def test_no_compiler_falls_back_to_the_container(fmu_dir, monkeypatch, tmp_path):
     # no master built and no compiler: the runner says so once and takes fmpy's container
+    from descent_fmus.synthesis.fmi import loop as loop_mod
     from descent_fmus.synthesis.problems import runner as runner_mod
     from descent_fmus.synthesis.registry import get_problem
     problem = get_problem("reentry")
@@ -89,7 +91,7 @@ def test_no_compiler_falls_back_to_the_container(fmu_dir, monkeypatch, tmp_path)
     _twins_or_skip(problem, fmu_dir)
     monkeypatch.setenv("DESCENT_FMUS_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv("CC", "no-such-compiler-here")
-    monkeypatch.setattr(runner_mod, "_WARNED", [])
+    monkeypatch.setattr(loop_mod, "_WARNED", [])
     with pytest.raises(MasterUnavailable, match="no C compiler"):
         master_library()
     with pytest.warns(RuntimeWarning, match="container"):
@@ -115,17 +117,17 @@ def test_bad_input_and_failing_flights(fmu_dir, tmp_path):
         k = next(i for i, n in enumerate(names) if n.startswith("q["))
         bad[k] = math.nan
         with pytest.raises(ValueError, match="must be finite"):
-            cm.run(state, (names, bad))
+            cm.run(state, StartValues(names, bad))
         with pytest.raises(ValueError, match="records no trajectory"):
-            cm.run(state, law.start_array(), record=True)
+            cm.run(state, StartValues.of_law(law), record=True)
         with pytest.raises(ValueError, match="Gauss-Seidel"):
-            cm.run(state, law.start_array(), scheme="jacobi")
+            cm.run(state, StartValues.of_law(law), scheme="jacobi")
         # the twin refuses a parameter at initialisation: the flight fails with its words,
         # and the loop flies on afterwards
         with pytest.raises(FMUError, match="dt_pred"):
             cm.run(state, {**law.start_values(), "replan": 1, "dt_pred": 1e-4})
         with ClosedLoop(problem.wiring, *twins) as py:
-            _same(cm.run(state, law.start_array()).final,
+            _same(cm.run(state, StartValues.of_law(law)).final,
                   py.run(state, law.start_values()).final)
     with pytest.raises(FMUError, match="no binary"):
         broken = tmp_path / "Empty.fmu"

@@ -27,7 +27,8 @@ from scipy.optimize import brentq
 from descent_fmus.models.controllers.reentry_npc import solve_control
 from descent_fmus.models.reentry import U_BOUNDS
 
-HEADER_DIR = Path(__file__).resolve().parent.parent / "synthesis" / "fmi" / "native" / "c"
+HEADER_DIR = (Path(__file__).resolve().parent.parent / "synthesis" / "fmi" / "native" / "c"
+              / "runtime")
 FLAGS = ["-O2", "-ffp-contract=off", "-std=c99", "-Wall", "-Wextra", "-Werror"]
 EPS = 2.0 ** -52
 RTOL = 4.0 * EPS                                   # SciPy's default and smallest rtol

@@ -173,10 +173,10 @@ def fly_law(problem, law, fmu_dir=None) -> list:
     """The final plant outputs of a network-operator ``law`` flown from every initial state of
     ``problem`` through its closed loop (plant FMU and the controller FMU), one dict per
     start."""
-    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.fmi.loop import open_loop
     from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
     plant, ctrl = problem.fmu_paths(fmu_dir or default_fmu_dir())
-    loop = ClosedLoop(problem.wiring, plant, ctrl)
+    loop = open_loop(problem.wiring, plant, ctrl, native=False)
     try:
         return [loop.run(plant_values=s, controller_values=law.start_values()).final
                 for s in problem.initial_states]

@@ -12,12 +12,13 @@ The master is a shared library compiled here once per machine (:func:`master_lib
 in :func:`synthesis.paths.cache_dir`, keyed by the compiler and the source), loaded once per
 process.  :class:`CMasterLoop` extracts the two FMUs, loads their binaries through it and flies
 with one ``dm_fly`` call: a flight sets only the start values that differ from the FMUs'
-declared ones (a law's start values come as ``(names, array)``).
+declared ones (a law's come as :class:`~synthesis.fmi.start_values.StartValues`: names, array).
 """
 from __future__ import annotations
 
 import ctypes
 import math
+from collections.abc import Mapping
 import os
 import shutil
 import tempfile
@@ -28,7 +29,7 @@ import numpy as np
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, Wiring
 from descent_fmus.synthesis.fmi.description.declared import declared_starts
-from descent_fmus.synthesis.fmi.native_loop import Layouts, _as_dict
+from descent_fmus.synthesis.fmi.native_loop import Layouts
 from descent_fmus.synthesis.fmi.slave import FMUError, not_an_output
 
 __all__ = ["CMasterLoop", "master_library", "MasterUnavailable",
@@ -144,8 +145,6 @@ class CMasterLoop:
 
     #: The closed-loop path, in one word (what a run reports).
     path = "native-c"
-    #: ``run`` takes a controller's start values as ``(names, values)`` too
-    takes_arrays = True
 
     def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
         self._dll = _dll(master_library())
@@ -212,7 +211,7 @@ class CMasterLoop:
     def _values(self, role: str, values):
         """The ``_Values`` of a component's start values for this flight (kept on the layout,
         which holds the buffers it points to)."""
-        got = self._layouts.get(role, values or ())
+        got = self._layouts.get(role, values)
         if got is None:
             return self._none
         lay, v = got
@@ -223,11 +222,11 @@ class CMasterLoop:
         st.nr, st.ni = lay.fill(v)
         return st
 
-    def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
+    def run(self, plant_values: Mapping | None = None, controller_values: Mapping | None = None,
             stop_time: float | None = None, step: float | None = None, record: bool = False,
             scheme: str = "gauss-seidel") -> ClosedLoopResult:
-        """One flight from t = 0; the final plant outputs.  The start values: dicts, or
-        ``(names, float array)`` pairs."""
+        """One flight from t = 0; the final plant outputs.  The start values: mappings
+        (:class:`~synthesis.fmi.start_values.StartValues` or dicts)."""
         w = self.wiring
         if record:
             raise ValueError("the C master records no trajectory; use ClosedLoop")
@@ -252,7 +251,7 @@ class CMasterLoop:
         k = self._steps.value
         return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
                                 stopped=bool(self._stopped.value), steps=k,
-                                t_final=min(k * w.step, t_end), start=_as_dict(plant_values))
+                                t_final=min(k * w.step, t_end), start=dict(plant_values or {}))
 
     def close(self) -> None:
         m, self._m = self._m, None

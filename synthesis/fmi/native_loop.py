@@ -10,9 +10,10 @@ of :mod:`synthesis.fmi.closed_loop`, so the same numbers as the Python master).
 FMUs with the Python side of a flight cut to what changes per candidate: the FMI functions of the
 container's library are called directly, and the start values of a run are compared with the
 components' declared ones as arrays (a law's start values have the same names every time), so
-only those that differ are set -- one ``fmi2SetReal`` and one ``fmi2SetInteger`` per flight.  A
-law's start values may come as ``(names, array)`` (``NetworkOperator.start_array``: 15 us a law
-where the dict takes 46 us and its reading as an array 22 us more).
+only those that differ are set -- one ``fmi2SetReal`` and one ``fmi2SetInteger`` per flight.  The
+runner hands a law's start values over as :class:`~synthesis.fmi.start_values.StartValues`
+(names and one array, from ``NetworkOperator.start_array``: 15 us a law where a dict takes 46 us
+and its reading as an array 22 us more per flight).
 
 :func:`native_fmus` says whether a wiring's native twins exist (:func:`missing_twins`: why not).
 """
@@ -20,12 +21,14 @@ from __future__ import annotations
 
 import ctypes
 import math
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
 
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
 from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
+from descent_fmus.synthesis.fmi.start_values import StartValues
 
 __all__ = ["NativeContainerLoop", "Layouts", "native_fmus", "missing_twins", "NATIVE_DIR"]
 
@@ -127,14 +130,12 @@ class Layouts:
         self._lookup, self._where, self._known = lookup, where, {}
 
     def get(self, role: str, values):
-        """``(layout, value array)`` of a component's start values: a dict, or ``(names, float
-        array)`` (the law's :meth:`start_array`); None for no values."""
-        if not len(values):
+        """``(layout, value array)`` of a component's start values (a mapping:
+        :class:`~synthesis.fmi.start_values.StartValues` or a dict); None for no values."""
+        if not values:
             return None
-        if isinstance(values, tuple):
-            names, v = values
-        else:
-            names, v = tuple(values), np.fromiter(values.values(), float, len(values))
+        sv = StartValues.of(values)
+        names, v = sv.names, sv.values
         key = (role, names)
         lay = self._known.get(key)
         if lay is None:
@@ -144,21 +145,12 @@ class Layouts:
         return lay, v
 
 
-def _as_dict(values) -> dict:
-    if isinstance(values, tuple):
-        return dict(zip(values[0], values[1].tolist()))
-    return dict(values or {})
-
-
 class NativeContainerLoop(ContainerLoop):
     """The closed loop of a plant and a controller (the native twins, or any FMI 2.0 FMUs) as
     one fmpy container FMU run by direct calls; same ``run`` as
     :class:`~synthesis.fmi.container_loop.ContainerLoop` (final outputs, no recording)."""
 
     path = "native-container"
-    #: ``run`` takes a controller's start values as ``(names, values)`` too (the runner passes
-    #: a law's ``start_array()``)
-    takes_arrays = True
 
     def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
         super().__init__(wiring, plant_fmu, controller_fmu)
@@ -185,8 +177,7 @@ class NativeContainerLoop(ContainerLoop):
         return lookup
 
     def _set_values(self, role: str, values) -> int:
-        """Set a component's start values: a dict, or ``(names, float array)`` (the law's
-        :meth:`start_array`): one fmi2SetReal, one fmi2SetInteger."""
+        """Set a component's start values (a mapping): one fmi2SetReal, one fmi2SetInteger."""
         got = self._layouts.get(role, values)
         if got is None:
             return 0
@@ -198,10 +189,9 @@ class NativeContainerLoop(ContainerLoop):
             status |= self._set_int(self._c, ivr, ni, ival)
         return status
 
-    def run(self, plant_values: dict | None = None, controller_values: dict | None = None,
+    def run(self, plant_values: Mapping | None = None, controller_values: Mapping | None = None,
             stop_time: float | None = None, record: bool = False, **_) -> ClosedLoopResult:
-        """One flight from t = 0 to the stop time in one ``doStep``; the final plant outputs.
-        The start values: dicts, or ``(names, float array)`` pairs."""
+        """One flight from t = 0 to the stop time in one ``doStep``; the final plant outputs."""
         if record:
             raise ValueError("the container path records no trajectory; use ClosedLoop")
         t_end = self.wiring.stop_time if stop_time is None else float(stop_time)
@@ -210,8 +200,8 @@ class NativeContainerLoop(ContainerLoop):
         if self._used and fn["fmi2Reset"](c) > 1:
             self._fail("fmi2Reset")
         self._used = True
-        if (self._set_values("plant", plant_values or {})
-                | self._set_values("controller", controller_values or ())) > 1:
+        if (self._set_values("plant", plant_values)
+                | self._set_values("controller", controller_values)) > 1:
             self._fail("setting the start values")
         if (fn["fmi2SetupExperiment"](c, 0, 0.0, 0.0, 1, t_end) > 1
                 or fn["fmi2EnterInitializationMode"](c) > 1
@@ -232,7 +222,7 @@ class NativeContainerLoop(ContainerLoop):
         stopped = bool(stop is not None and stop.output in final and stop.holds(final[stop.output]))
         return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final, stopped=stopped,
                                 steps=int(math.ceil(t_end / self.wiring.step - 1e-9)),
-                                t_final=t_end, start=_as_dict(plant_values))
+                                t_final=t_end, start=dict(plant_values or {}))
 
     def _fail(self, what: str):
         said = "; ".join(m.strip() for m in self.log if m.strip())

@@ -306,6 +306,16 @@ class SynthesisProblem:
         return (plant if plant.is_absolute() else d / plant,
                 ctrl if ctrl.is_absolute() else d / ctrl)
 
+    def load(self, plant_fmu, controller_fmu):
+        """This problem's closed loop on these FMUs, loaded once (the path its runner chooses;
+        a :class:`synthesis.fmi.loop.Loop`)."""
+        return self.runner.load(self.wiring, plant_fmu, controller_fmu, record=self.record)
+
+    def fly(self, loop, law) -> Outcome:
+        """``law`` flown in ``loop`` (:meth:`load`) from this problem's initial states (or
+        fewer, racing) -> its :class:`Outcome`: the one call a flight makes on its problem."""
+        return self.evaluate(self.runner.flights(loop, self, law))
+
     def evaluate(self, flights: Sequence[ClosedLoopResult]) -> Outcome:
         """One law's :class:`Outcome` from its flights; a non-finite objective gives the
         penalty (never a NaN in a result)."""

@@ -110,17 +110,17 @@ import re
 from pathlib import Path
 
 from descent_fmus.synthesis.fmi.closed_loop import Stop, Wiring
-from descent_fmus.synthesis.problems.contract import AGGREGATES, Constraint, SynthesisProblem
-from descent_fmus.synthesis.problems.expressions import Expression, ExpressionError
-from descent_fmus.synthesis.problems.file_functions import (FileObjective, FileObjectives,
-                                                            FlightExpression)
+from descent_fmus.synthesis.problems.contract import SynthesisProblem
+from descent_fmus.synthesis.problems.file_functions import FileObjectives
+from descent_fmus.synthesis.problems.file_objectives import (CONSTRAINT_KEYS, OBJECTIVE_KEYS,
+                                                             read_constraints, read_objectives,
+                                                             recorded_signals)
 from descent_fmus.synthesis.problems.file_reader import (ControllerInfo, PlantInfo,
                                                          ProblemFileError, Reader, find_fmu,
                                                          model_description)
 from descent_fmus.synthesis.problems.file_recipe import read_baselines, read_recipe, read_target
 from descent_fmus.synthesis.problems.runner import Runner
-from descent_fmus.synthesis.problems.limits import (MAX_CONSTRAINTS, MAX_FILE_BYTES,
-                                                    MAX_OBJECTIVES, MAX_STATES,
+from descent_fmus.synthesis.problems.limits import (MAX_FILE_BYTES, MAX_STATES,
                                                     ResourceLimitError, check_steps)
 
 try:
@@ -141,8 +141,8 @@ _KEYS = {
     "simulation": {"step", "stop_time", "stop", "path"},
     "simulation.stop": {"output", "op", "value"},
     "initial_states": {"states", "box", "samples", "sampler", "seed"},
-    "objectives": {"name", "flight", "over_states", "unmet_stop_penalty", "penalty"},
-    "constraints": {"name", "flight", "sense", "bound", "over_states", "scale"},
+    "objectives": OBJECTIVE_KEYS,
+    "constraints": CONSTRAINT_KEYS,
     "basic_law": {"gains", "bias", "size", "file", "psi", "q", "outputs"},
 }
 
@@ -174,8 +174,8 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
     step, stop_time, stop, runner = _simulation_table(rd, data, plant)
     states = tuple(dict(fixed, **s) for s in _initial_states(rd, data, plant))
     signals = plant.outputs | set(ctrl.law_signals)
-    objectives, names, penalty = _objectives(rd, data, plant, ctrl, signals, stop)
-    constraints = _constraints(rd, data, plant, ctrl, signals, stop)
+    objectives, names, penalty = read_objectives(rd, data, plant, ctrl, signals, stop)
+    constraints = read_constraints(rd, data, plant, ctrl, signals, stop)
     exprs = [ob.flight.expression for ob in objectives] + \
         [c.flight.expression for c in constraints]
     law = _basic_law(rd, data, path, ctrl)
@@ -188,7 +188,7 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         objective_names=tuple(names), penalty=tuple(penalty), basic_law=law, **recipe,
         constraints=tuple(constraints), target=read_target(rd, data, names),
         baselines=read_baselines(rd, data, path, law), unary=ops["unary"], binary=ops["binary"],
-        q_bits=q_bits, record=_record(exprs, ctrl), plant_fmu=str(plant.path),
+        q_bits=q_bits, record=recorded_signals(exprs, ctrl), plant_fmu=str(plant.path),
         controller_fmu=str(ctrl.path), runner=runner, input_scaling=ctrl.scaling,
         source=f"file {path.name} sha256:{digest}")
 
@@ -366,79 +366,6 @@ def _sampled_states(rd: Reader, init: dict, plant: PlantInfo) -> list:
         return Box.from_bounds(ranges).sample(samples, seed, sampler)
     except ValueError as exc:
         raise rd.error("initial_states.samples", str(exc)) from None
-
-
-def _flight_expression(rd: Reader, item: dict, key: str, plant: PlantInfo, ctrl: ControllerInfo,
-                       signals, stop) -> FlightExpression:
-    try:
-        expr = Expression(rd.string(item, key, "flight"), signals)
-    except ExpressionError as exc:
-        raise rd.error(f"{key}.flight", str(exc)) from None
-    for term in expr.terms:       # recorded signals are Reals; final() reads any type
-        for sig in sorted(set(term.signals) - set(ctrl.law_signals) - set(plant.real_outputs)):
-            if term.function != "final":
-                raise rd.error(f"{key}.flight", f"{term} needs Real signals; {sig!r} is "
-                                                f"{plant.vars[sig].type} (only final() reads "
-                                                f"Integer and Boolean outputs)")
-    unmet = float(rd.number(item, key, "unmet_stop_penalty", 0.0))
-    if unmet and stop is None:
-        raise rd.error(f"{key}.unmet_stop_penalty", "needs [simulation].stop (a flight can "
-                                                    "only miss a stop condition it has)")
-    return FlightExpression(expr, tuple(ctrl.law_signals.items()), stop is not None, unmet)
-
-
-def _aggregate(rd: Reader, item: dict, key: str, default: str) -> str:
-    over = rd.string(item, key, "over_states", default)
-    if over not in AGGREGATES:
-        raise rd.error(f"{key}.over_states", f"must be one of {', '.join(AGGREGATES)}, got "
-                                             f"{over!r}")
-    return over
-
-
-def _objectives(rd: Reader, data, plant, ctrl, signals, stop) -> tuple:
-    objectives, names, penalty = [], [], []
-    for key, ob in rd.items(data, "objectives", _KEYS["objectives"], MAX_OBJECTIVES):
-        oname = rd.string(ob, key, "name")
-        if oname in names:
-            raise rd.error(f"{key}.name", f"objective {oname!r} appears twice")
-        flight = _flight_expression(rd, ob, key, plant, ctrl, signals, stop)
-        objectives.append(FileObjective(oname, flight, _aggregate(rd, ob, key, "sum")))
-        names.append(oname)
-        penalty.append(float(rd.number(ob, key, "penalty", 1e9)))
-    return objectives, names, penalty
-
-
-def _constraints(rd: Reader, data, plant, ctrl, signals, stop) -> list:
-    if "constraints" not in data:
-        return []
-    out, names = [], set()
-    for key, item in rd.items(data, "constraints", _KEYS["constraints"], MAX_CONSTRAINTS):
-        cname = rd.string(item, key, "name")
-        if cname in names:
-            raise rd.error(f"{key}.name", f"constraint {cname!r} appears twice")
-        names.add(cname)
-        flight = _flight_expression(rd, dict(item, unmet_stop_penalty=0.0), key, plant, ctrl,
-                                    signals, stop)
-        sense = rd.string(item, key, "sense", "<=")
-        if sense not in ("<=", ">="):
-            raise rd.error(f"{key}.sense", f"must be '<=' or '>=', got {sense!r}")
-        scale = rd.number(item, key, "scale", 0.0)
-        if "scale" in item and scale <= 0:
-            raise rd.error(f"{key}.scale", f"must be > 0, got {scale!r}")
-        out.append(Constraint(cname, flight, float(rd.number(item, key, "bound")), sense,
-                              _aggregate(rd, item, key, "max"),
-                              float(scale) if "scale" in item else None))
-    return out
-
-
-def _record(exprs, ctrl: ControllerInfo) -> tuple:
-    """The plant outputs named inside every reduction but ``final`` (read from the final outputs),
-    then ``ctrl.u[k]`` of the law outputs named in any (they switch recording on); empty when
-    every reduction is a ``final`` of plant outputs: the fastest flights, recorded at no point."""
-    law = ctrl.law_signals
-    plant = {sig for e in exprs for fn, sig in e.reductions if fn != "final" and sig not in law}
-    controller = {"ctrl." + law[sig] for e in exprs for _, sig in e.reductions if sig in law}
-    return tuple(sorted(plant)) + tuple(sorted(controller))
 
 
 def _basic_law(rd: Reader, data, path: Path, ctrl: ControllerInfo):

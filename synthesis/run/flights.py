@@ -45,8 +45,7 @@ class LawFlyer:
         LawFlyer._alive.add(self)
         try:
             with critical():        # instantiating a pythonfmu FMU runs its Python code
-                self.loop = problem.runner.load(problem.wiring, plant, controller,
-                                                record=problem.record)
+                self.loop = problem.load(plant, controller)
         except Exception as exc:   # FMUs that do not load: every law fails with that error
             self.error = f"{type(exc).__name__}: {exc}"
 
@@ -56,8 +55,7 @@ class LawFlyer:
             return None, self.error
         try:
             with critical():
-                flights = self.problem.runner.flights(self.loop, self.problem, law)
-            return self.problem.evaluate(flights), None
+                return self.problem.fly(self.loop, law), None
         except Exception as exc:  # an FMU error costs this law only
             return None, f"{type(exc).__name__}: {exc}"
 

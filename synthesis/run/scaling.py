@@ -82,14 +82,14 @@ def rescaled(law, offset, scale):
 def _window(problem, law, plant_fmu, controller_fmu) -> tuple:
     """``(offset, scale, what was derived)`` from flights of ``law`` from every initial state
     (in this process, recorded)."""
-    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.fmi.loop import open_loop
     from descent_fmus.synthesis.run.signals import critical
     # a stop is raised between the loading and the flights, never inside an FMU's code
     # (synthesis.run.signals)
     loop, flights, sv = None, [], law.start_values()
     try:
         with critical():
-            loop = ClosedLoop(problem.wiring, plant_fmu, controller_fmu)
+            loop = open_loop(problem.wiring, plant_fmu, controller_fmu, native=False)
         for s in problem.initial_states:
             with critical():
                 flights.append(loop.run(plant_values=s, controller_values=sv, record=True))

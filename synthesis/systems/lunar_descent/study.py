@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.lunar_descent import DescentParams
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.loop import Loop, open_loop
 from descent_fmus.synthesis.problems.dispersion import Box
 from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.systems.lunar_descent.problems import (HF, STEP, VF, WIRING,
@@ -45,15 +45,15 @@ def dispersion_states(samples: int, seed: int) -> list:
     return dispersion_box().sample(samples, seed) if samples else []
 
 
-def load_loop(fmu_dir=None, record=("V", "h")) -> ClosedLoop:
+def load_loop(fmu_dir=None, record=("V", "h")) -> Loop:
     """The LunarDescent + NetworkOperatorController closed loop, loaded once (reset per
     flight)."""
     d = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
-    return ClosedLoop(WIRING, d / f"{WIRING.plant}.fmu", d / f"{WIRING.controller}.fmu",
-                      record=record)
+    return open_loop(WIRING, d / f"{WIRING.plant}.fmu", d / f"{WIRING.controller}.fmu",
+                     native=False, record=record)
 
 
-def fly_set(loop: ClosedLoop, law, states, record: bool = False) -> list:
+def fly_set(loop: Loop, law, states, record: bool = False) -> list:
     """Per-state results (:func:`per_state` fields + the start values) of one law over
     ``states``; with ``record`` each row also carries the trajectory (t [s], V [m/s], h [m])."""
     sv = law.start_values()

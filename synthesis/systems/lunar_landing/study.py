@@ -298,7 +298,7 @@ class LandingLoops:
     RECORD = ("h", "V", "m", "fuel")
 
     def __init__(self, fmu_dir=None, nominal: LanderParams = LanderParams()):
-        from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+        from descent_fmus.synthesis.fmi.loop import open_loop
         from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
         from descent_fmus.synthesis.systems.lunar_landing.problems import (FEEDBACK_WIRING,
                                                                            PROGRAM_WIRING,
@@ -311,10 +311,12 @@ class LandingLoops:
                                 "g_nominal": nominal.gL}
         self.loops = {}
         try:
-            self.loops["program"] = ClosedLoop(PROGRAM_WIRING, d / "LunarLander.fmu",
-                                               d / "LandingProgram.fmu", record=self.RECORD)
-            self.loops["feedback"] = ClosedLoop(FEEDBACK_WIRING, d / "LunarLander.fmu",
-                                                d / "LandingSwitch.fmu", record=self.RECORD)
+            self.loops["program"] = open_loop(PROGRAM_WIRING, d / "LunarLander.fmu",
+                                              d / "LandingProgram.fmu", native=False,
+                                              record=self.RECORD)
+            self.loops["feedback"] = open_loop(FEEDBACK_WIRING, d / "LunarLander.fmu",
+                                               d / "LandingSwitch.fmu", native=False,
+                                               record=self.RECORD)
         except Exception:
             self.close()
             raise

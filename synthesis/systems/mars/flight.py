@@ -19,7 +19,8 @@ import numpy as np
 
 from descent_fmus.models.controllers.mars_bellman import CONSISTENT, PAPER
 from descent_fmus.models.integrators import REACHED, STATUS_NAMES
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, ClosedLoopResult
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult
+from descent_fmus.synthesis.fmi.loop import Loop, open_loop
 from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.plotting import save_figure
 from descent_fmus.synthesis.systems.mars.wiring import WIRING
@@ -67,7 +68,7 @@ class MarsRun:
         return out
 
 
-def load_loop(fmu_dir=None, wiring=WIRING, record=RECORD) -> ClosedLoop:
+def load_loop(fmu_dir=None, wiring=WIRING, record=RECORD) -> Loop:
     """Load the plant FMU and the controller FMU of ``wiring`` once (reset per :func:`fly`).
 
     ``wiring`` defaults to the averaged plant's :data:`~.wiring.WIRING`; pass
@@ -75,11 +76,11 @@ def load_loop(fmu_dir=None, wiring=WIRING, record=RECORD) -> ClosedLoop:
     plant.  ``fmu_dir`` defaults to :func:`descent_fmus.synthesis.paths.fmu_dir`.
     """
     d = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
-    return ClosedLoop(wiring, d / f"{wiring.plant}.fmu", d / f"{wiring.controller}.fmu",
-                      record=record)
+    return open_loop(wiring, d / f"{wiring.plant}.fmu", d / f"{wiring.controller}.fmu",
+                     native=False, record=record)
 
 
-def fly(loop: ClosedLoop, label: str, plant_values: dict | None = None,
+def fly(loop: Loop, label: str, plant_values: dict | None = None,
         controller_values: dict | None = None, record: bool = True,
         step: float | None = None) -> MarsRun:
     """One flight through ``loop``'s FMUs (start values by FMU variable name)."""

@@ -8,10 +8,10 @@ over the seeded sample set (statistics, racing), ``reports`` the run reports and
 bound, ``problems`` the recipes and the registered synthesis problems; the studies: ``flight``
 closed-loop flights and plots, ``bound`` the best open-loop program, ``robustness`` the
 dispersion study, ``robust_study`` the held-out study of guidance laws, ``oracle`` the
-per-sample bound, ``cli`` its commands, ``native/`` its native (C) code: the estimator,
-the on-board guidance and re-planner, the twins of its controllers -- and ``tests/test_reentry_*.py``.  The generic pieces
-it uses: the NetworkOperatorController and ProgramController FMUs, ``synthesis.methods``
-(network operator, GA, open loop).
+per-sample bound, ``cli`` its commands, ``native/`` its native (C) code: the estimator, the
+on-board guidance and re-planner, the twins of its controllers -- and
+``tests/test_reentry_*.py``.  The generic pieces it uses: the NetworkOperatorController and
+ProgramController FMUs, ``synthesis.methods`` (network operator, GA, open loop).
 """
 from descent_fmus.synthesis.registry import ClosedLoopSpec, System
 from descent_fmus.synthesis.systems.reentry import cli, guidance, native, problems, wiring

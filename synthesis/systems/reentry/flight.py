@@ -5,7 +5,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, ClosedLoopResult
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult
+from descent_fmus.synthesis.fmi.loop import Loop, open_loop
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
 from descent_fmus.synthesis.plotting import save_figure
@@ -40,15 +41,15 @@ class ReentryFlight:
         return dict(self.objectives, law=self.law.to_dict())
 
 
-def load_loop(fmu_dir=None, record=RECORD) -> ClosedLoop:
+def load_loop(fmu_dir=None, record=RECORD) -> Loop:
     """The Reentry + NetworkOperatorController closed loop, loaded once (reset per flight)."""
     d = Path(fmu_dir) if fmu_dir is not None else default_fmu_dir()
-    return ClosedLoop(WIRING, d / "Reentry.fmu", d / "NetworkOperatorController.fmu",
-                      record=record)
+    return open_loop(WIRING, d / "Reentry.fmu", d / "NetworkOperatorController.fmu",
+                     native=False, record=record)
 
 
 def fly(law: NetworkOperator, scenario: str = "default", params: ReentryParams | None = None,
-        fmu_dir=None, record: bool = False, loop: ClosedLoop | None = None,
+        fmu_dir=None, record: bool = False, loop: Loop | None = None,
         step: float | None = None) -> ReentryFlight:
     """One closed-loop flight of ``law`` through the Reentry and NetworkOperatorController FMUs."""
     p = params or scenario_params(scenario)

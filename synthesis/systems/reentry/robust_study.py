@@ -94,12 +94,12 @@ def _fly_loop(wiring, fmu_dir, plant, ctrl_fmu, params, controller_values, noise
               per_sample=None):
     from tqdm import tqdm
 
-    from descent_fmus.synthesis.problems.runner import Runner
+    from descent_fmus.synthesis.fmi.loop import open_loop
     rows = []
     sensed = wiring is not WIRING
     # the native twins where they are built (the same flights, ~40x faster; re-planned
     # flights the same to the rounding of the re-planner's linear programmes, ~30x faster)
-    loop = Runner().load(wiring, fmu_dir / plant, fmu_dir / ctrl_fmu)
+    loop = open_loop(wiring, fmu_dir / plant, fmu_dir / ctrl_fmu)
     try:
         # a progress bar on a terminal only (a re-planned flight costs ~1 s in Python)
         for k, p in enumerate(tqdm(params, desc=f"{wiring.name} flights ({loop.path})",

@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.reentry import ReentryParams
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.loop import open_loop
 from descent_fmus.synthesis.problems.dispersion import Box
 from descent_fmus.synthesis.systems.reentry.objectives import objectives
 from descent_fmus.synthesis.systems.reentry.wiring import WIRING, plant_values
@@ -53,8 +53,8 @@ def dispersion_study(laws: dict, program, samples: int, seed: int, fmu_dir) -> d
     fmu_dir = Path(fmu_dir)
     params = dispersion_samples(samples, seed)
     results = {}
-    with ClosedLoop(WIRING, fmu_dir / "Reentry.fmu",
-                    fmu_dir / "NetworkOperatorController.fmu") as loop:
+    with open_loop(WIRING, fmu_dir / "Reentry.fmu", fmu_dir / "NetworkOperatorController.fmu",
+                   native=False) as loop:
         for name, law in laws.items():
             sv = law.start_values()
             results[name] = [objectives(loop.run(plant_values(p), sv).final, p)

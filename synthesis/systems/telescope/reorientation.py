@@ -349,7 +349,7 @@ def replay(ro: Reorientation, fmu_dir=None, step: float | None = None) -> dict:
     parameters, from ``fmu_dir`` (default: :func:`synthesis.paths.fmu_dir`).
     """
     from descent_fmus.models.controllers.program_table import program_values
-    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.fmi.loop import open_loop
     from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
     from descent_fmus.synthesis.systems.telescope.wiring import PLANTS, plant_values, wiring
 
@@ -359,8 +359,8 @@ def replay(ro: Reorientation, fmu_dir=None, step: float | None = None) -> dict:
     names = list(STATE_NAMES)
     h = float(r.t_nodes[1] - r.t_nodes[0])
     step = step or h / 2.0
-    with ClosedLoop(wiring(plant), fmu_dir / f"{plant}.fmu", fmu_dir / "ProgramController.fmu",
-                    record=names + ["sing"]) as cl:
+    with open_loop(wiring(plant), fmu_dir / f"{plant}.fmu", fmu_dir / "ProgramController.fmu",
+                   native=False, record=names + ["sing"]) as cl:
         t0 = time.perf_counter()
         out = cl.run(plant_values=plant_values(ro.params, ro.panels, dt=float(r.t[1] - r.t[0])),
                      controller_values=program_values(ro.T, r.controls), stop_time=ro.T,

@@ -259,7 +259,7 @@ def replay_route(rt: RouteTrace, fmu_dir=None, step: float | None = None) -> dic
     Telescope with the tracer's parameters and initial state) with fmpy; the deviation from the
     route at every communication point and the end error against the in-process trace."""
     from descent_fmus.models.controllers.program_table import program_values
-    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.fmi.loop import open_loop
     from descent_fmus.synthesis.paths import fmu_dir as default_fmu_dir
     from descent_fmus.synthesis.systems.telescope.wiring import plant_values, wiring
 
@@ -268,8 +268,9 @@ def replay_route(rt: RouteTrace, fmu_dir=None, step: float | None = None) -> dic
     step = step or replay_step(r.t_nodes)
     names = list(STATE_NAMES)
     t_end = float(r.t_nodes[-1])
-    with ClosedLoop(wiring("Telescope"), fmu_dir / "Telescope.fmu",
-                    fmu_dir / "ProgramController.fmu", record=names + ["sing"]) as cl:
+    with open_loop(wiring("Telescope"), fmu_dir / "Telescope.fmu",
+                   fmu_dir / "ProgramController.fmu", native=False,
+                   record=names + ["sing"]) as cl:
         t0 = time.perf_counter()
         out = cl.run(plant_values=plant_values(rt.params, dt=DT_INTEGRATION, state=rt.x0),
                      controller_values=program_values(t_end, r.controls, times=r.t_nodes),
