@@ -111,6 +111,7 @@ def test_interrupted_run_resumes_to_the_same_result(fmu_dir, tmp_path):
 @pytest.mark.parametrize("budget", [("--generations", "10"),
                                     ("--generations", "1000", "--flights", "260")],
                          ids=["generations", "flights"])
+@pytest.mark.slow            # two CLI runs per case (~10 s)
 def test_killed_cli_run_resumes(fmu_dir, tmp_path, budget):
     # a real SIGKILL in the middle of a CLI run (checkpoints at most a second apart, at
     # generation and phase boundaries): resume finishes with the same Pareto set as an

@@ -82,6 +82,7 @@ def test_container_parameters(fmu_dir, loop):
     assert res[-1]["L"] == pytest.approx(f["L_final"], rel=1e-12)
 
 
+@pytest.mark.slow            # fmpy validate of every FMU (~15 s)
 def test_every_fmu_validates(fmu_dir):
     fmus = sorted(fmu_dir.glob("*.fmu"))
     assert len(fmus) >= 3

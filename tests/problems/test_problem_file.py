@@ -32,6 +32,7 @@ def _edit(src: Path, dst: Path, old: str, new: str) -> Path:
     return dst
 
 
+@pytest.mark.slow            # a synthesis through the hopper FMU (~30 s)
 def test_tutorial_problem_runs_through_the_fmus(hopper_dir, fmu_dir, tmp_path):
     from fmpy import simulate_fmu
     problem = load_problem_file(hopper_dir / "hopper.toml", fmu_dir=fmu_dir)
@@ -53,6 +54,7 @@ def test_tutorial_problem_runs_through_the_fmus(hopper_dir, fmu_dir, tmp_path):
     assert res["h"][-1] <= 0.0 and abs(res["v"][-1]) < 5.0
 
 
+@pytest.mark.slow            # a synthesis through the hopper FMU (~50 s)
 def test_a_too_narrow_parameter_range_is_reported(hopper_dir, fmu_dir, tmp_path):
     # the basic law (gains -1.5, -0.5 on h/10 and v) lies inside q_range [-2, 2), but the laws
     # that touch down softly need larger gains (the cma-linear baseline of the suite ends near

@@ -25,6 +25,7 @@ def program(open_loop_program):
     return open_loop_program
 
 
+@pytest.mark.slow            # the S1 open-loop program (~25 s once per session)
 def test_bound_on_the_controller_grid(program):
     # one value per 1 s sample period, true-peak load, zero miss: J1 = 8.2895 (independent
     # SLSQP with finite differences on the same discretisation)
@@ -38,6 +39,7 @@ def test_bound_on_the_controller_grid(program):
     assert abs(downrange(fi.x, P.Rz) - P.Lf) < 1.0
 
 
+@pytest.mark.slow            # a second SLSQP solve of the bound (~10 s)
 def test_bound_at_a_miss_tolerance(program):
     # miss <= 800 m: J1 = 8.2729 (the same independent solution); a looser miss, a lower bound
     p800 = optimize_open_loop(miss_tol=800.0, u0=program.u)
@@ -45,6 +47,7 @@ def test_bound_at_a_miss_tolerance(program):
     assert p800.miss <= 800.0 + 1e-3 and p800.J1 < program.J1
 
 
+@pytest.mark.slow            # the S1 open-loop program (~25 s once per session)
 def test_bound_program_replayed_through_the_fmu(program, fmu_dir):
     # the Reentry FMU flying the program (u set at every 1 s communication point) reproduces
     # the optimiser's J1 and miss
@@ -72,6 +75,7 @@ def test_sensitivities_match_central_differences():
         assert f.dloads[i, k] == pytest.approx(d, rel=1e-4, abs=1e-7)
 
 
+@pytest.mark.slow            # the S1 open-loop program (~25 s once per session)
 def test_program_file_round_trip(program, tmp_path):
     back = Program.load(program.save(tmp_path / "p.json"))
     assert np.array_equal(back.u, program.u) and back.J1 == program.J1
@@ -80,6 +84,7 @@ def test_program_file_round_trip(program, tmp_path):
         Program.load(tmp_path / "bad.json")
 
 
+@pytest.mark.slow            # the S1 open-loop program (~25 s once per session)
 def test_the_blind_program_misses_under_dispersion(program, fmu_dir, tmp_path):
     # the model is not exactly known, so the optimal program flown blind misses: on the
     # dispersion set (rho0 +-15 %, m +-5 %, V0 +-50 m/s, beta0 +-0.03 deg) its median miss is

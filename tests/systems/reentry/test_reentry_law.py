@@ -29,6 +29,7 @@ def law():
     return NetworkOperator.load(LAW)
 
 
+@pytest.mark.slow            # the S1 bound at 1 km, after the open-loop program
 def test_synthesised_law_meets_the_target(law, fmu_dir, open_loop_program):
     bound = optimize_open_loop(miss_tol=1000.0, u0=open_loop_program.u).J1
     o = fly(law, fmu_dir=fmu_dir).objectives

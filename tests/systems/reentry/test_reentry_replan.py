@@ -103,6 +103,7 @@ def test_replanned_profile_replayed_through_the_plant_lands_where_predicted(fmu_
 @pytest.mark.slow
 @pytest.mark.parametrize("change", [dict(rho0=1.22 * 1.08, m=4850.0, V0=7530.0, lam=1.35e-4 * 1.03),
                                     dict(rho0=1.22 * 0.93, V0=7490.0, lam=1.35e-4 * 0.98)])
+@pytest.mark.slow            # two open-loop optimisations per case (~30-50 s)
 def test_load_oracle_equals_a_direct_open_loop_optimisation(change):
     from descent_fmus.synthesis.systems.reentry.bound import optimize_open_loop
     from descent_fmus.synthesis.systems.reentry.load_oracle import load_oracle
