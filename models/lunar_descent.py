@@ -56,7 +56,7 @@ G_TILDE = 9.80665
 #: Speed below which the flight leaves the model's domain [m/s]: dtheta/dt has V in the
 #: denominator, so the angle is undefined at V = 0 ([choice], models/README.md).
 V_STALL = 1.0
-#: Default RK4 sub-step [s] (accuracy: models/README.md, tests/test_lunar_descent_model.py).
+#: Default RK4 sub-step [s] (accuracy: models/README.md, tests/systems/lunar_descent/test_lunar_descent_model.py).
 DT_INTEGRATION = 1.0
 
 

@@ -47,12 +47,12 @@ __all__ = ["MarsParams", "descent", "precession", "rhs", "observe", "initial_sta
            "MarsIntegrator", "simulate", "MarsCapsule", "OUTPUTS", "DT_INTEGRATION", "STEP",
            "T_MAX"]
 
-#: Default RK4 sub-step of the averaged plant [s] (tests/test_mars_fmus.py: against solve_ivp).
+#: Default RK4 sub-step of the averaged plant [s] (tests/systems/mars/test_mars_fmus.py: against solve_ivp).
 DT_INTEGRATION = 0.1
 #: Communication step of the closed loops [s]: over one step the held control sees the phase
 #: theta advance by theta_dot * STEP <= 0.1 rad (theta_dot <= 1.95 rad/s).  Halving it changes
 #: alpha(150 s) by 0.3 % and alpha_end by 0.9 %; doubling it (0.1 s) by 1.5 % and 4.6 %
-#: (models/README.md, tests/test_mars_loop.py).
+#: (models/README.md, tests/systems/mars/test_mars_loop.py).
 STEP = 0.05
 #: Time limit of a flight [s] (the default descent reaches h_end = 10 km at t = 660.5 s).
 T_MAX = 1500.0

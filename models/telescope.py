@@ -22,7 +22,7 @@ This module holds the only definition of these equations (:func:`make_rigid_rhs`
 :class:`Telescope` FMU, the flexible model (``models/telescope_flexible.py``) and the
 reorientation by the direct method (``synthesis/systems/telescope/reorientation.py``) all call
 it.  :func:`rigid_jacobian` is its analytic linearisation (checked against finite differences in
-``tests/test_telescope_model.py``).  :class:`AttitudeIntegrator` is the one integrator of the
+``tests/systems/telescope/test_telescope_model.py``).  :class:`AttitudeIntegrator` is the one integrator of the
 telescope plants (first-order hold of the gimbal rates, ``models/rk4_input.py``).
 
 References

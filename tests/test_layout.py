@@ -183,10 +183,30 @@ def test_every_system_has_one_home():
         system = get_system(stem)
         assert system.stem == stem
         assert (ROOT / "models" / f"{stem}.py").is_file()
-        assert list((ROOT / "tests").glob(f"test_{stem}_*.py")), stem
+        assert list((ROOT / "tests" / "systems" / stem).glob(f"test_{stem}_*.py")), stem
         for spec in system.fmus:
             module = spec.split(":")[0]
             assert (ROOT / "models" / (module.replace(".", "/") + ".py")).is_file(), spec
+
+
+#: Test folders named after something other than a folder of synthesis/ (what they test).
+TESTED_ELSEWHERE = {"docs": "docs", "suite": "benchmarks/suite"}
+
+
+def test_tests_are_laid_out_like_the_code():
+    # a test file sits in the folder of what it tests: tests/<path>/ mirrors synthesis/<path>/
+    # (tests/fmi/native/, tests/systems/<stem>/, ...) or a folder of TESTED_ELSEWHERE; at the top
+    # only this file (the whole repository's layout); names unique (pytest's import by name)
+    tests = ROOT / "tests"
+    assert [p.name for p in tests.glob("test_*.py")] == ["test_layout.py"]
+    files = sorted(tests.rglob("test_*.py"))
+    names = [p.name for p in files]
+    assert len(names) == len(set(names)), sorted(n for n in names if names.count(n) > 1)
+    for path in files:
+        rel = path.parent.relative_to(tests).parts
+        if rel:
+            code = ROOT / TESTED_ELSEWHERE.get(rel[0], f"synthesis/{rel[0]}") / Path(*rel[1:])
+            assert code.is_dir(), f"{path.relative_to(ROOT)}: no folder {code.relative_to(ROOT)}"
 
 
 OUTSIDE = re.compile(r"SPEC\b|DESIGN\.md|\bissue \d|\b[Ss]eed 00\d|shared/")

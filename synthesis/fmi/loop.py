@@ -14,7 +14,7 @@ Five paths fly a plant and a controller FMU in closed loop, each a class with th
 
 :func:`choose_path` says which path a wiring takes (the twins where built, unless ``native`` is
 False; the container if asked; the master when recording) and :func:`open_loop` opens it.
-Every caller opens its loops here (``tests/test_closed_loop_factory.py`` checks that no other
+Every caller opens its loops here (``tests/fmi/test_closed_loop_factory.py`` checks that no other
 module constructs one of the five classes).
 """
 from __future__ import annotations

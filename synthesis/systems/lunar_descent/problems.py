@@ -33,7 +33,7 @@ __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "INITIAL_SET", "initial_states",
 
 #: Communication step [s] (the law's sample-and-hold period): halving it to 0.5 s moves h(tf)
 #: of the basic law by < 2.5 m per state (of a 500 m half box); the RK4 sub-step (1 s) is
-#: converged to 0.01 m (tests/test_lunar_descent_model.py).
+#: converged to 0.01 m (tests/systems/lunar_descent/test_lunar_descent_model.py).
 STEP = 1.0
 
 #: Controller output bounds: u1 in [pi, 2 pi] rad, u2 in [-40, 40] kgf (the plant's clipping).

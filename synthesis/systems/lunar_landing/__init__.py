@@ -6,7 +6,7 @@ LandingProgram FMU: the optimal open-loop program), ``models/controllers/lunar_l
 (the LandingSwitch FMU: the optimal law as feedback), this package (``problems`` the Pontryagin
 problems and the closed-loop wirings, ``study`` the shooting solve, the closed loops through the
 FMUs, the dispersion study and the figures, ``cli`` its commands), ``tests/test_lunar_landing_*.py``
-(and ``tests/test_shooting.py`` for the solver), ``benchmarks/lunar_landing.py`` and
+(and ``tests/methods/test_shooting.py`` for the solver), ``benchmarks/lunar_landing.py`` and
 ``docs/make_lunar_landing_figures.py``.  The generic piece it uses: the shooting solver
 ``synthesis.methods.shooting``.
 

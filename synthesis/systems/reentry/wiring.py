@@ -15,7 +15,7 @@ from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 __all__ = ["WIRING", "STEP", "LOOP_PARAMETERS", "plant_values"]
 
 #: Communication step of the reentry closed loop [s] (halving it changes J1 by < 0.5 %:
-#: tests/test_cosim.py).
+#: tests/fmi/test_cosim.py).
 STEP = 1.0
 
 WIRING = Wiring(

@@ -10,8 +10,8 @@ problem of Example 3, ``cli`` its commands),
 ``tests/test_telescope_*.py``, ``benchmarks/telescope.py`` and ``docs/make_telescope_figures.py``.
 The generic pieces it uses: the ProgramController FMU (``models/controllers/program_table.py``),
 the direct method (``synthesis/methods/direct_method.py``, tested in
-``tests/test_direct_method.py``) and the route tracer (``synthesis/methods/route.py``,
-``tests/test_route.py``).
+``tests/methods/test_direct_method.py``) and the route tracer (``synthesis/methods/route.py``,
+``tests/methods/test_route.py``).
 
 References
 ----------

@@ -3,7 +3,7 @@ flexible plant + reduced-algorithm program) and the programs they carry.
 
 The programs are the direct method's solutions of the reorientation (Voronov 2009, Examples 1-2),
 stored in ``programs.json`` beside this module (written by ``descent-fmus telescope
-write-programs``; ``tests/test_telescope_cli.py`` checks that a fresh solve reproduces them).
+write-programs``; ``tests/systems/telescope/test_telescope_cli.py`` checks that a fresh solve reproduces them).
 The file is read only when a closed-loop FMU is built (:func:`rigid_program`,
 :func:`flexible_program`), never at import.
 

@@ -326,7 +326,7 @@ int pc_eigvalsh3(const double *a, double *out)
  * coordinates: lossless scaling by a power of two, exact squares (Veltkamp-Dekker splitting),
  * a compensated sum started at 1.0, and a square root corrected by one differential step; for
  * a largest coordinate below 2**-1023, division by it and a once-compensated sum.  Checked
- * against math.hypot on random pairs over the whole range (tests/test_native_plants.py). */
+ * against math.hypot on random pairs over the whole range (tests/fmi/native/test_native_plants.py). */
 typedef struct {
     double hi, lo;
 } pc_dd;

@@ -17,7 +17,7 @@
  *
  * The same problems are solved in Python by SciPy's HiGHS (models.controllers.reentry_replan.
  * lp_step): this is a second implementation, equal to it in the optimal value to rounding and
- * in the solution wherever the optimum is unique (tests/test_native_replan.py).
+ * in the solution wherever the optimum is unique (tests/systems/reentry/test_native_replan.py).
  *
  * descent-fmus (MIT licence).
  */

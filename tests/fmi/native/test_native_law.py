@@ -1,0 +1,336 @@
+"""Native law FMUs (C, no Python in the host) against the pythonfmu controller they replace.
+
+Oracles: the pythonfmu NetworkOperatorController FMU loaded with the same law (bitwise equal
+outputs: both evaluate the one operation table with the platform's C math library), the
+evaluator's closed-loop numbers (the Pareto rows of a synthesis), the recorded numbers of the
+committed lunar-descent law (tests/reference/lunar_descent_law.meta.json), and a C host written
+here that loads the FMU through the FMI 2.0 API alone.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pytest
+from fmpy import read_model_description, simulate_fmu
+from fmpy.ssp.ssd import read_ssd
+from fmpy.validation import validate_fmu
+
+from descent_fmus.models.controllers.network_operator import BINARY, UNARY
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
+from descent_fmus.synthesis.run.evaluation import Evaluator
+from descent_fmus.synthesis.fmi.law_files import export_law_files
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
+from descent_fmus.synthesis.fmi.native.builders.law_fmu import build_law_fmu
+from descent_fmus.synthesis.registry import get_problem
+from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
+
+from fmi_calls import bits, start
+
+REF = Path(__file__).resolve().parents[2] / "reference"
+REENTRY_LAW = REF / "reentry_best_law.json"
+DESCENT_LAW = REF / "lunar_descent_law.json"
+#: extreme inputs: zeros of both signs, the largest and smallest doubles, inf, NaN, the clamp
+EXTREMES = [0.0, -0.0, 1e300, -1e300, math.inf, -math.inf, math.nan, 1e-300, -1e-300,
+            5e-324, 1.7976931348623157e308, 1e8, -1e8, 1e-7, -1e-7, 1.0, -1.0, 0.01, 18.5]
+
+pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (CI installs gcc)")
+
+
+def every_operation_law(rng, L: int = 32, nx: int = 3, nq: int = 4) -> NetworkOperator:
+    """A law on which every unary and every binary operation acts (random arcs, scaled inputs,
+    two outputs with wide bounds so that the raw node values show)."""
+    psi = np.zeros((L, L), dtype=int)
+    ns = nx + nq
+    unary = list(rng.permutation(np.arange(1, len(UNARY))))
+    for j in range(ns, L):
+        psi[j, j] = 1 + (j - ns) % (len(BINARY) - 1)
+        for i in rng.choice(j, size=min(j, 3), replace=False):
+            psi[i, j] = unary.pop() if unary else rng.integers(1, len(UNARY))
+    return NetworkOperator(psi, nx=nx, q=list(rng.uniform(-4, 4, nq)), outputs=[L, L - 3],
+                           bounds=[(-1e9, 1e9), (-0.2, 0.3)], input_scale=[2.0, 0.5, -1.0],
+                           input_offset=[0.1, -3.0, 0.0])
+
+
+def inputs(rng, nx: int, n: int) -> list:
+    """``n`` random input vectors over many scales, then the extremes (for 2 inputs: every
+    pair of them)."""
+    scales = rng.choice([1e-3, 0.3, 3.0, 100.0, 1e6], size=(n, 1))
+    xs = [list(map(float, row)) for row in rng.normal(0.0, 1.0, (n, nx)) * scales]
+    if nx == 2:
+        xs += [[a, b] for a in EXTREMES for b in EXTREMES]
+    else:
+        xs += [[a] * nx for a in EXTREMES] + [list(map(float, rng.choice(EXTREMES, nx)))
+                                              for _ in range(400)]
+    return xs
+
+
+def outputs_of(fmu, vr, law, xs) -> list:
+    xi = [vr[f"x[{k + 1}]"] for k in range(law.nx)]
+    ui = [vr[f"u[{k + 1}]"] for k in range(len(law.outputs))]
+    out = []
+    for x in xs:
+        fmu.setReal(xi, x)
+        out.append(fmu.getReal(ui))
+    return out
+
+
+@pytest.fixture(scope="module")
+def generic(fmu_dir):
+    fmu = load_slave(fmu_dir / "NetworkOperatorController.fmu", "generic")
+    yield fmu
+    fmu.terminate()
+    fmu.freeInstance()
+
+
+def laws():
+    rng = np.random.default_rng(13)
+    return [("reentry", NetworkOperator.load(REENTRY_LAW)),
+            ("lunar-descent", NetworkOperator.load(DESCENT_LAW)),
+            ("paper", paper_law())] + \
+        [(f"every-op-{k}", every_operation_law(rng)) for k in range(3)]
+
+
+@pytest.mark.parametrize("name,law", laws(), ids=[n for n, _ in laws()])
+def test_native_equals_pythonfmu_controller(name, law, generic, tmp_path):
+    # >= 2000 inputs per law (> 10 000 over the six laws), extremes included: every output
+    # bitwise equal to the pythonfmu controller's, and finite
+    path = build_law_fmu(law, tmp_path / "Law.fmu", "Law")
+    assert validate_fmu(str(path)) == []
+    assert path.stat().st_size <= 200 * 1024
+    rng = np.random.default_rng(len(name))
+    xs = inputs(rng, law.nx, 1700)
+    assert len(xs) >= 2000
+    native = load_slave(path, "native")
+    try:
+        want = outputs_of(generic, start(generic, law.start_values()), law, xs)
+        got = outputs_of(native, start(native, {}), law, xs)
+    finally:
+        native.terminate()
+        native.freeInstance()
+    for x, a, b in zip(xs, want, got):
+        assert [bits(v) for v in a] == [bits(v) for v in b], (x, a, b)
+        assert all(math.isfinite(v) for v in b)
+
+
+def test_parameters_are_tunable_and_checked(tmp_path):
+    # q is tunable (set between steps: the next output uses it); an invalid start value is
+    # an fmi2Error with the parameter named (the same rules as the pythonfmu controller)
+    law = paper_basic_law()
+    log = []
+    fmu = load_slave(build_law_fmu(law, tmp_path / "Basic.fmu", "Basic"), "basic", log)
+    try:
+        vr = start(fmu, {})
+        fmu.setReal([vr["x[1]"], vr["x[2]"]], [0.01, -0.02])
+        assert fmu.getReal([vr["u[1]"]])[0] == law([0.01, -0.02])[0]
+        fmu.doStep(0.0, 1.0)
+        fmu.setReal([vr["q[1]"]], [5.0])
+        assert fmu.getReal([vr["u[1]"]])[0] == law.with_q([5.0, law.q[1]])([0.01, -0.02])[0]
+        with pytest.raises(Exception):
+            fmu.setReal([vr["u_min[1]"]], [0.0])       # fixed after initialisation
+        assert "fixed parameter" in log[-1]
+        with pytest.raises(Exception):
+            start(fmu, {"u_min[1]": 1.0})              # u_min > u_max
+        assert "u_min[1] = 1, u_max[1] = 0.2: need finite bounds" in log[-1]
+        with pytest.raises(Exception):
+            start(fmu, {"q[2]": math.inf})
+        assert "parameter q[2] must be finite" in log[-1]
+        start(fmu, {})                                  # usable again after the errors
+        fmu.setReal([vr["x[1]"], vr["x[2]"]], [1.0, 1.0])
+        assert fmu.getReal([vr["u[1]"]])[0] == 0.2
+    finally:
+        fmu.freeInstance()
+
+
+def test_sampled_like_the_pythonfmu_controller(generic, tmp_path):
+    # sample_period = 3 s stepped at 1 s: outputs held (inputs ignored) between samples, as
+    # the pythonfmu controller does (models/fmu_support.py)
+    law = NetworkOperator.load(REENTRY_LAW)
+    native = load_slave(build_law_fmu(law, tmp_path / "S.fmu", "S"), "native")
+    rng = np.random.default_rng(4)
+    try:
+        res = []
+        for fmu, values in ((generic, law.start_values()), (native, {})):
+            vr = start(fmu, dict(values, sample_period=3.0))
+            seq = []
+            for k in range(12):
+                fmu.setReal([vr["x[1]"], vr["x[2]"]], list(rng.normal(0, 0.05, 2)))
+                seq.append(fmu.getReal([vr["u[1]"]])[0])
+                fmu.doStep(float(k), 1.0)
+            res.append(seq)
+            rng = np.random.default_rng(4)
+    finally:
+        native.freeInstance()
+    assert res[0] == res[1]
+    assert len(set(res[1])) < len(res[1])      # held values repeat
+
+
+@pytest.fixture(scope="module")
+def reentry_export(fmu_dir, tmp_path_factory):
+    law = NetworkOperator.load(REENTRY_LAW)
+    out = tmp_path_factory.mktemp("reentry_law")
+    return law, export_law_files(law, out, law_fmu="native", fmu_dir=fmu_dir,
+                                 problem=get_problem("reentry"), closed_loop=True,
+                                 identifier="ReentryLaw")
+
+
+def test_closed_loop_reproduces_the_pareto_row(reentry_export, fmu_dir):
+    # the Pareto row of a law is what the evaluator computes (pythonfmu plant + pythonfmu
+    # controller); the exported closed loop (pythonfmu plant + native law) under fmpy simulate
+    # gives the same J1 and miss (1e-9), and so does the Python master with the native law
+    law, files = reentry_export
+    problem = get_problem("reentry")
+    with Evaluator(problem, fmu_dir) as ev:
+        (j1, j2), = ev.evaluate([law]).F
+    res = simulate_fmu(files["closed_loop_fmu"], output=["L", "load_max", "status"])[-1]
+    assert res["status"] == 1
+    assert res["load_max"] == pytest.approx(j1, rel=1e-9)
+    assert abs(res["L"] - 1_400_000.0) == pytest.approx(j2, rel=1e-9)
+    with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu", files["controller_fmu"]) as loop:
+        f = problem.evaluate([loop.run(s) for s in problem.initial_states]).f
+    assert f == (j1, j2)
+    # the SSP of the same loop (schema-checked) holds the native law, not the generic controller
+    ssd = read_ssd(files["ssp"], validate=True)
+    assert [e.source for e in ssd.system.elements] == ["resources/Reentry.fmu",
+                                                       "resources/ReentryLaw.fmu"]
+
+
+def test_two_output_law_reproduces_its_recorded_numbers(fmu_dir, tmp_path):
+    # tests/reference/lunar_descent_law.meta.json records J1, J2 of the committed S5 law over
+    # its initial states (two outputs, scaled inputs); the native law flown by the Python
+    # master with the pythonfmu plant reproduces them (1e-9)
+    law = NetworkOperator.load(DESCENT_LAW)
+    meta = json.loads(DESCENT_LAW.with_suffix(".meta.json").read_text())
+    problem = get_problem("lunar-descent")
+    path = build_law_fmu(law, tmp_path / "DescentLaw.fmu", "DescentLaw")
+    plant = problem.fmu_paths(fmu_dir)[0]
+    with ClosedLoop(problem.wiring, plant, path, record=problem.record) as loop:
+        results = [loop.run(s, record=bool(problem.record)) for s in problem.initial_states]
+    (j1, j2) = problem.evaluate(results).f
+    assert (j1, j2) == pytest.approx((meta["J1"], meta["J2"]), rel=1e-9)
+
+
+def test_no_python_in_the_binary(reentry_export):
+    _, files = reentry_export
+    with zipfile.ZipFile(files["controller_fmu"]) as z:
+        names = z.namelist()
+        so = [n for n in names if n.startswith("binaries/")]
+        assert so == ["binaries/linux64/ReentryLaw.so"]
+        assert not any(n.endswith(".py") for n in names)
+        data = z.read(so[0])
+    nm = shutil.which("nm")
+    if nm is None:
+        pytest.skip("nm (binutils) not installed")
+    lib = Path(files["controller_fmu"]).with_suffix(".so")
+    lib.write_bytes(data)
+    dyn = subprocess.run([nm, "-D", str(lib)], capture_output=True, text=True, check=True).stdout
+    symbols = [line.split()[-1] for line in dyn.splitlines() if line.strip()]
+    assert not [s for s in symbols if s.startswith(("Py", "_Py")) or "python" in s.lower()]
+    needed = subprocess.run(["ldd", str(lib)], capture_output=True, text=True).stdout
+    assert "python" not in needed.lower()
+    exported = {s for line in dyn.splitlines() if " T " in line for s in [line.split()[-1]]}
+    assert "fmi2DoStep" in exported and all(s.startswith("fmi2") for s in exported)
+
+
+def _host(tmp_path, libs=()) -> Path:
+    exe = tmp_path / "fmi2_host"
+    subprocess.run([find_compiler(), "-std=c99", "-O1", "-o", str(exe),
+                    str(Path(__file__).parent / "fmi2_host.c"), "-ldl", *libs], check=True)
+    return exe
+
+
+def _run_host(exe, fmu: Path, workdir: Path, law, xs) -> list:
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(workdir)
+    md = read_model_description(str(fmu))
+    vr = {v.name: v.valueReference for v in md.modelVariables}
+    ins = ",".join(str(vr[f"x[{k + 1}]"]) for k in range(law.nx))
+    outs = ",".join(str(vr[f"u[{k + 1}]"]) for k in range(len(law.outputs)))
+    env = {k: v for k, v in os.environ.items()
+           if k not in ("LD_PRELOAD", "PYTHONHOME", "PYTHONPATH")}
+    env["PATH"] = "/usr/bin:/bin"
+    lib = workdir / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
+    text = "\n".join(" ".join(float.hex(v) if math.isfinite(v) else repr(v) for v in x)
+                     for x in xs) + "\n"
+    res = subprocess.run([str(exe), str(lib), md.guid, ins, outs], input=text,
+                         capture_output=True, text=True, env=env, check=True)
+    return [[float.fromhex(t) for t in line.split()] for line in res.stdout.splitlines()]
+
+
+def test_a_c_host_runs_it_without_python(reentry_export, tmp_path):
+    # a host written in C (fmi2_host.c beside this file), LD_PRELOAD/PYTHONHOME/PYTHONPATH unset:
+    # the outputs equal the law evaluated in Python, bitwise
+    law, files = reentry_export
+    xs = inputs(np.random.default_rng(8), 2, 500)
+    got = _run_host(_host(tmp_path), Path(files["controller_fmu"]), tmp_path / "fmu", law, xs)
+    assert len(got) == len(xs)
+    for x, u in zip(xs, got):
+        assert bits(u[0]) == bits(law(x)[0]), x
+
+
+def test_sources_rebuild_the_fmu(reentry_export, tmp_path):
+    # the FMU alone is enough: compile the files its model description lists (sources/), with
+    # no descent-fmus code, and get the same outputs (bitwise) through the same C host
+    law, files = reentry_export
+    fmu = Path(files["controller_fmu"])
+    work = tmp_path / "unzipped"
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(work)
+    md = read_model_description(str(fmu))
+    sources = md.buildConfigurations[0].sourceFileSets[0].sourceFiles
+    assert set(sources) == {"fmi2_cs.c", "law_model.c", "law.c"}
+    lib = work / "binaries" / "linux64" / "ReentryLaw.so"
+    lib.unlink()
+    subprocess.run([find_compiler(), "-shared", "-fPIC", "-O2", "-I", str(work / "sources"),
+                    *[str(work / "sources" / f) for f in sources], "-o", str(lib), "-lm"],
+                   check=True)
+    rebuilt = tmp_path / "Rebuilt.fmu"
+    with zipfile.ZipFile(rebuilt, "w") as z:
+        for p in sorted(work.rglob("*")):
+            if p.is_file():
+                z.write(p, p.relative_to(work).as_posix())
+    xs = inputs(np.random.default_rng(9), 2, 300)
+    exe = _host(tmp_path)
+    a = _run_host(exe, fmu, tmp_path / "a", law, xs)
+    b = _run_host(exe, rebuilt, tmp_path / "b", law, xs)
+    assert [[bits(v) for v in r] for r in a] == [[bits(v) for v in r] for r in b]
+
+
+@pytest.mark.skipif(shutil.which("cmake") is None, reason="fmpy compile needs cmake")
+def test_fmpy_compile_rebuilds_it(reentry_export, tmp_path):
+    # another tool's build of the shipped sources (fmpy compile: CMake + the <SourceFiles>).
+    # fmpy's CMake project does not link the math library: that binary takes exp, tanh, ...
+    # from the host process (a Python host has them), so this C host links -lm itself
+    law, files = reentry_export
+    fmu = tmp_path / "ReentryLaw.fmu"
+    shutil.copy(files["controller_fmu"], fmu)
+    subprocess.run([sys.executable, "-m", "fmpy", "compile", str(fmu)], check=True,
+                   capture_output=True)
+    xs = inputs(np.random.default_rng(10), 2, 200)
+    got = _run_host(_host(tmp_path, ["-Wl,--no-as-needed", "-lm"]), fmu, tmp_path / "fmu", law,
+                    xs)
+    for x, u in zip(xs, got):
+        assert bits(u[0]) == bits(law(x)[0]), x
+
+
+def test_fmu_rejects_calls_out_of_order(tmp_path):
+    log = []
+    fmu = load_slave(build_law_fmu(paper_basic_law(), tmp_path / "B.fmu", "B"), "b",
+                     log)
+    try:
+        with pytest.raises(Exception):
+            fmu.doStep(0.0, 1.0)                 # before initialisation
+        assert "before fmi2ExitInitializationMode" in log[-1]
+        with pytest.raises(Exception):
+            fmu.setReal([999], [1.0])
+        assert "no Real variable has value reference 999" in log[-1]
+    finally:
+        fmu.freeInstance()
