@@ -36,8 +36,10 @@ PHASES = ("scaling", "search", "checkpoints", "export", "report")
 def run(out: Path, args) -> dict:
     """One run's figures (see the module docstring)."""
     cmd = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry",
-           "--seed", str(args.seed), "--workers", str(args.workers), "--out", str(out),
-           "--no-reference", "--quiet", "--json"]
+           "--workers", str(args.workers), "--out", str(out), "--no-reference", "--quiet",
+           "--json"]
+    if args.seed is not None:
+        cmd += ["--seed", str(args.seed)]
     if args.flights:
         cmd += ["--flights", str(args.flights)]
     load = os.getloadavg()[0]
@@ -58,7 +60,7 @@ def run(out: Path, args) -> dict:
 def main(argv=None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--flights", type=int, default=0, help="flight budget (default: the problem's)")
-    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--seed", type=int, default=None, help="default: the problem's")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--json", action="store_true")
@@ -73,7 +75,8 @@ def main(argv=None) -> dict:
     if args.json:
         print(json.dumps(out, indent=1))
         return out
-    print(f"S1 search, {args.workers} workers, seed {args.seed}, {len(runs)} run(s)")
+    print(f"S1 search, {args.workers} workers, seed {args.seed or 'of the problem'}, "
+          f"{len(runs)} run(s)")
     for tag, r in [(f"load {r['load']:.1f}", r) for r in runs] + [("median", med)]:
         print(f"  [{tag}] {r['laws']:.0f} laws: search {r['search']:.1f} s = "
               f"{r['laws_per_s']:.0f} laws/s (target >= 5000); flights' own time "
