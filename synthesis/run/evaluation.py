@@ -172,6 +172,10 @@ class Evaluator:
         self.on_chunk = None
         self._journaled: dict = {}                  # fingerprint -> Outcome a stopped run flew
         self._rate = 0.0                            # laws per second of the last chunk
+        #: wall seconds this process spent waiting for flights (inside the backend), and the
+        #: flights' own compute seconds (the workers' measured time per law, summed)
+        self.fly_seconds = 0.0
+        self.flights_cpu = 0.0
         Evaluator._open.add(self)
 
     @property
@@ -211,7 +215,7 @@ class Evaluator:
             results = self._fly(todo)
             retry = [i for i, (o, _) in enumerate(results) if o is None]
             if retry:   # retried once (a dead worker or a transient FMU error) ...
-                for i, r in zip(retry, self.backend.fly([todo[i][1] for i in retry])):
+                for i, r in zip(retry, self._backend_fly([todo[i][1] for i in retry])):
                     results[i] = r
             self._judge([err for o, err in results if o is None], len(todo))
             for (k, _, b), (outcome, err) in zip(todo, results):
@@ -241,7 +245,7 @@ class Evaluator:
         """The backend's results for the laws of ``todo`` (see :attr:`journal`): the outcomes
         a stopped run journaled, the rest flown in chunks, each chunk journaled."""
         if self.journal is None:
-            return self.backend.fly([law for _, law, _ in todo])
+            return self._backend_fly([law for _, law, _ in todo])
         results: list = [None] * len(todo)
         rest = []
         for i, (k, _, _) in enumerate(todo):
@@ -255,7 +259,7 @@ class Evaluator:
                 4 * self.workers
             part, rest = rest[:n], rest[n:]
             t0 = time.perf_counter()
-            got = self.backend.fly([todo[i][1] for i in part])
+            got = self._backend_fly([todo[i][1] for i in part])
             self._rate = len(part) / max(time.perf_counter() - t0, 1e-9)
             for i, r in zip(part, got):
                 results[i] = r
@@ -263,6 +267,17 @@ class Evaluator:
             if self.on_chunk is not None:
                 self.on_chunk(len(part))
         return results
+
+    def _backend_fly(self, laws) -> list:
+        """The backend's results for ``laws``, timed (:attr:`fly_seconds`,
+        :attr:`flights_cpu`)."""
+        t0 = time.perf_counter()
+        out = self.backend.fly(laws)
+        wall = time.perf_counter() - t0
+        self.fly_seconds += wall
+        self.flights_cpu += wall if self.backend.kind == "in-process" else \
+            len(laws) * self.backend.flight_seconds
+        return out
 
     def _known_behaviour(self, todo: list) -> list:
         """``todo`` without the laws equivalent to a law flown before (they take its outcome);

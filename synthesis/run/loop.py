@@ -381,6 +381,8 @@ def _run_fields(loop: RunLoop, evaluator, elapsed: float, method: str, out, curv
             "flights": loop.flights, "failures": evaluator.failures,
             "first_failure": evaluator.first_error,
             "evaluations_per_second": evaluator.simulated / max(elapsed, 1e-9),
+            "flight_seconds": {"waited": evaluator.fly_seconds,
+                               "own": evaluator.flights_cpu / max(evaluator.workers, 1)},
             "flight_path": evaluator.path,
             "out": str(out), "evaluations": m.evaluations, "generations": m.generation,
             "curve": curve, "checkpoints": checkpoints,

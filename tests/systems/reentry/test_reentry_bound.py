@@ -10,9 +10,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from descent_fmus.models.reentry import ReentryParams, downrange
+from descent_fmus.models.reentry import SECOND_SCENARIO, ReentryParams, downrange
 from descent_fmus.synthesis.systems.reentry.bound import (Program, ProgramFlight, fly_program,
-                                                          optimize_open_loop, replay_program)
+                                                          optimize_open_loop, reference_bounds,
+                                                          replay_program)
 from descent_fmus.synthesis.systems.reentry.robustness import (dispersion_samples,
                                                                dispersion_study, plot_study)
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law
@@ -45,6 +46,41 @@ def test_bound_at_a_miss_tolerance(program):
     p800 = optimize_open_loop(miss_tol=800.0, u0=program.u)
     assert p800.J1 == pytest.approx(8.2729, abs=2e-4)
     assert p800.miss <= 800.0 + 1e-3 and p800.J1 < program.J1
+
+
+# The bounds by the route before the coarse starts and the near-peak samples (SLSQP from u = 0
+# with every load sample in the NLP, the 1 km bound from the zero-miss program; commit 1642ab5):
+# (zero miss, miss <= 1 km) on the default and the second scenario.  On the second scenario that
+# commit's 1 km solve stopped after 5 iterations at the zero-miss program (6.649540, no minimum:
+# a looser miss must not cost load); the same route with today's flight (sensitivities equal to
+# 1e-16; benchmarks/bound.py --scenario second) goes on to 6.6475341299, the value used here.
+OLD_ROUTE = {"default": (8.289492969721305, 8.269102108359542),
+             "second": (6.649539618485613, 6.6475341299)}
+
+
+@pytest.mark.slow            # both bounds, solved afresh
+def test_reference_bounds_equal_the_old_route():
+    # the same bounds to 1e-6 (the old route's values above), the same grid
+    zero, tol = reference_bounds(1000.0)
+    assert len(zero.u) == len(tol.u) == 300 and zero.t_seg == tol.t_seg == 1.0
+    assert zero.J1 == pytest.approx(OLD_ROUTE["default"][0], abs=1e-6)
+    assert tol.J1 == pytest.approx(OLD_ROUTE["default"][1], abs=1e-6)
+    assert zero.miss < 1.0 and tol.miss <= 1000.0 + 1e-3
+    # the NLP held only the samples near the peak, and no other sample reached it
+    assert zero.info["samples"] < 400 and zero.info["rounds"] < 4
+
+
+@pytest.mark.slow
+def test_reference_bounds_on_the_second_scenario():
+    # another entry (V0 8 km/s, h0 80 km, -1.6 deg): the old route's values above, to 1e-6
+    zero, tol = reference_bounds(1000.0, SECOND_SCENARIO)
+    assert zero.J1 == pytest.approx(OLD_ROUTE["second"][0], abs=1e-6)
+    assert tol.J1 == pytest.approx(OLD_ROUTE["second"][1], abs=1e-6)
+
+
+def test_near_peak_is_checked():
+    with pytest.raises(ValueError, match="near_peak"):
+        optimize_open_loop(near_peak=0.0)
 
 
 @pytest.mark.slow            # the S1 open-loop program (~25 s once per session)

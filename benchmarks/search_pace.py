@@ -1,0 +1,91 @@
+"""Benchmark: does the S1 search run at the evaluator's pace?
+
+Runs ``descent-fmus synthesize reentry`` (the default problem and budget, one seed, the bound
+skipped: ``--no-reference``) ``--repeat`` times and prints, per run and as medians:
+
+* the search's laws per second (laws flown / the search phase's wall seconds);
+* the flights' own time: the workers' measured compute seconds per law, summed, over the
+  number of workers (what the search would take if the method cost nothing), and the seconds
+  the main process waited for the workers;
+* the ratio search wall / flights' own time (target <= 2) and the laws/s target (>= 5 000 on 2
+  workers);
+* the phase split (scaling, search, checkpoints, export, report), with the export's share of
+  the whole command.
+
+Timings are measured, never asserted; the machine's load average is printed beside them.
+
+    python benchmarks/search_pace.py [--flights N] [--seed S] [--workers W] [--repeat R] [--json]
+
+Needs ``python build_fmus.py``.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+PHASES = ("scaling", "search", "checkpoints", "export", "report")
+
+
+def run(out: Path, args) -> dict:
+    """One run's figures (see the module docstring)."""
+    cmd = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry",
+           "--workers", str(args.workers), "--out", str(out), "--no-reference", "--quiet",
+           "--json"]
+    if args.seed is not None:
+        cmd += ["--seed", str(args.seed)]
+    if args.flights:
+        cmd += ["--flights", str(args.flights)]
+    load = os.getloadavg()[0]
+    t0 = time.perf_counter()
+    res = subprocess.run(cmd, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if res.returncode != 0:
+        raise SystemExit(f"synthesize failed ({res.returncode}):\n{res.stderr[-3000:]}")
+    s = json.loads(res.stdout)
+    t, fl = s["timings"], s["flight_seconds"]
+    return {"wall": wall, "load": load, "laws": s["simulated"],
+            "laws_per_s": s["simulated"] / t["search"], "own": fl["own"], "waited": fl["waited"],
+            "ratio": t["search"] / max(fl["own"], 1e-9),
+            "export_share": t.get("export", 0.0) / wall,
+            **{k: t.get(k, 0.0) for k in PHASES}}
+
+
+def main(argv=None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--flights", type=int, default=0, help="flight budget (default: the problem's)")
+    ap.add_argument("--seed", type=int, default=None, help="default: the problem's")
+    ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    runs = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for i in range(args.repeat):
+            runs.append(run(Path(tmp) / f"run{i}", args))
+    keys = ("wall", "laws", "laws_per_s", "own", "waited", "ratio", "export_share") + PHASES
+    med = {k: statistics.median(r[k] for r in runs) for k in keys}
+    out = {"runs": runs, "median": med, "workers": args.workers}
+    if args.json:
+        print(json.dumps(out, indent=1))
+        return out
+    print(f"S1 search, {args.workers} workers, seed {args.seed or 'of the problem'}, "
+          f"{len(runs)} run(s)")
+    for tag, r in [(f"load {r['load']:.1f}", r) for r in runs] + [("median", med)]:
+        print(f"  [{tag}] {r['laws']:.0f} laws: search {r['search']:.1f} s = "
+              f"{r['laws_per_s']:.0f} laws/s (target >= 5000); flights' own time "
+              f"{r['own']:.1f} s, waited {r['waited']:.1f} s; search / own = {r['ratio']:.2f} "
+              f"(target <= 2); export {r['export']:.1f} s ({100 * r['export_share']:.0f} % of "
+              f"{r['wall']:.1f} s); " + ", ".join(f"{k} {r[k]:.1f}" for k in PHASES
+                                                    if k not in ("search", "export")))
+    return out
+
+
+if __name__ == "__main__":
+    main()
