@@ -152,8 +152,9 @@ def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise"
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
     psi[0, 3], psi[1, 3], psi[3, 4], psi[2, 4], psi[4, 5] = 1, 1, 1, 1, 1
     cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, basis_rule=basis_rule)
+    # forms=0: the `laws` best refined, `refine_evals` each (the mode these tests pin)
     refine = RefineConfig(evals=refine_evals, laws=2, basis=refine_basis,
-                          basis_patience=patience, starts=starts)
+                          basis_patience=patience, starts=starts, forms=0)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, decode=_bowl_law, target=Target(0, 1, 100.0),
                          refine=refine, generations=generations, flights=flights)

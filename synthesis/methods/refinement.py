@@ -69,7 +69,7 @@ class RefineConfig:
                              "its own seed and the `basis` budget; the best one's law goes on "
                              "(several basins of a multimodal landscape instead of one)",
                           1, 64)
-    forms: int = setting(0, "forms tuned after every epoch by successive halving: the best "
+    forms: int = setting(4, "forms tuned after every epoch by successive halving: the best "
                             "members by the target with distinct structures each get a short "
                             "CMA-ES, the better half goes on with twice the evaluations, until "
                             "one has `evals` (0 = the `laws` best, `evals` each)", 0, 64)
