@@ -35,6 +35,7 @@ import argparse
 import json
 import math
 import os
+import re
 import statistics
 import sys
 import time
@@ -89,6 +90,8 @@ def run_one(job: dict) -> dict:
     from descent_fmus.synthesis.run.loop import run_synthesis
     d = Path(job["dir"])
     method, settings = VARIANTS.get(job["method"], (job["method"], {}))
+    if method == NETWORK_OPERATOR:
+        settings = {**job.get("settings", {}), **settings}
     problem = suite.load(job["problem"], job["fmus"], build=False).tuned(
         flights=job["flights"], seed=job["seed"], generations=10 ** 6, **settings)
     t0 = time.perf_counter()
@@ -131,9 +134,10 @@ def _launch(job: dict) -> dict:
 
 
 def run_all(names, seeds, out: Path, fmus, workers: int, flights_override=None,
-            methods=None) -> None:
+            methods=None, settings=None) -> None:
     """Every run of the suite not finished yet (of ``methods`` only, if given), ``workers`` at
-    once (one process each), the longest first."""
+    once (one process each), the longest first; ``settings`` (``{name: value}`` as on the
+    command line of ``synthesize``) change the recipe of every network-operator run."""
     from concurrent.futures import ThreadPoolExecutor
 
     from descent_fmus.synthesis.paths import fmu_dir
@@ -153,6 +157,7 @@ def run_all(names, seeds, out: Path, fmus, workers: int, flights_override=None,
                 d.parent.mkdir(parents=True, exist_ok=True)
                 jobs.append({"problem": name, "method": method, "seed": seed,
                              "flights": flights, "dir": str(d), "fmus": fmus,
+                             "settings": dict(settings or {}),
                              "cost": flights * _flight_cost(name)})
     if not jobs:
         return
@@ -177,6 +182,24 @@ def run_all(names, seeds, out: Path, fmus, workers: int, flights_override=None,
 _COSTS = {"lunar-descent": 0.08, "cartpole": 0.06, "hopper": 0.05, "lq": 0.035,
           "parking": 0.03, "reentry-second": 0.004, "parking-box": 0.05,
           "mintime-di": 0.02, "mintime-osc": 0.03}
+
+
+def recipe_settings(items) -> dict:
+    """``["refine_basis_patience=0", "lchr=12"]`` -> ``{name: int or float value}``, checked
+    against the recipe's settings (ValueError with one line naming the bad one)."""
+    from descent_fmus.synthesis.problems.contract import recipe
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        if not sep:
+            raise ValueError(f"--set {item!r}: give NAME=VALUE")
+        try:
+            out[name.strip()] = int(value) if re.fullmatch(r"[+-]?\d+", value.strip()) \
+                else float(value)
+        except ValueError:
+            out[name.strip()] = value.strip()
+    recipe(**out)                                       # unknown names, bad values: raise
+    return out
 
 
 def _flight_cost(name: str) -> float:
@@ -438,19 +461,24 @@ def main(argv=None):
                     default=ROOT / "docs" / "figures" / "suite.png",
                     help="the learning-curve figures, one per half (default "
                          "docs/figures/suite-tuning.png and suite-held-out.png; '' for none)")
+    ap.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                    help="a recipe setting of every network-operator run, named as in "
+                         "synthesize's options (refine_basis_patience=0, lchr=12; "
+                         "repeatable): an A/B of the recipe, in its own --out")
     ap.add_argument("--job", help=argparse.SUPPRESS)        # one run (the runner's child)
     args = ap.parse_args(argv)
     if args.job:
         _child(args.job)
     try:
         halves = split.read_split(args.split, suite.ORDER)
-    except split.SplitError as exc:
+        settings = recipe_settings(args.set)
+    except (split.SplitError, ValueError) as exc:
         print(f"error: {exc}", file=sys.stderr)
         sys.exit(2)
     t0 = time.perf_counter()
     if not args.no_run:
         run_all(args.problems, args.seeds, args.out, args.fmus, args.workers, args.flights,
-                args.methods)
+                args.methods, settings)
     table = tabulate(args.problems, args.seeds, args.out, args.fmus)
     wall = time.perf_counter() - t0
     parts = {half: {n: dict(table[n], half=half) for n in halves[half] if n in table}

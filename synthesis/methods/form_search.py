@@ -22,15 +22,37 @@ class FormSearch:
 
     def _count(self, phase: str, members) -> None:
         """The search's statistics (:attr:`stats`): evaluations per phase, and how many of
-        them beat the population's best law by the target."""
+        them beat the population's best law by the target; of the children, how many have a
+        structure no member had before in this process (``children_new_form``) and how many
+        of those beat the best law (``children_new_form_better``)."""
         st = self.stats
         st[phase] = st.get(phase, 0) + len(members)
+        new = self._new_forms(members) if phase == "children" else [False] * len(members)
         if self.target is None or not self.pop:
             return
         k = int(self.target.order(self.F, self.CV)[0])
         best = self.pop[k]
-        wins = sum(self.target.better(m.f, best.f, m.cv, best.cv) for m in members)
-        st[phase + "_better"] = st.get(phase + "_better", 0) + int(wins)
+        wins = [self.target.better(m.f, best.f, m.cv, best.cv) for m in members]
+        st[phase + "_better"] = st.get(phase + "_better", 0) + int(sum(wins))
+        if phase == "children":
+            st["children_new_form_better"] = st.get("children_new_form_better", 0) + int(
+                sum(w and n for w, n in zip(wins, new)))
+
+    def _new_forms(self, members) -> list:
+        """Whether each member's structure is one not seen before (counted in
+        ``children_new_form``); the structures of the population count as seen.  The set
+        of seen structures is not in the checkpoint: after a resume it starts again from
+        the population's (a statistic only; the search does not read it)."""
+        seen = self.__dict__.setdefault("_seen_forms", set())
+        if not seen:
+            seen.update(self._structure_key(m) for m in self.pop)
+        out = []
+        for m in members:
+            key = self._structure_key(m)
+            out.append(key not in seen)
+            seen.add(key)
+        self.stats["children_new_form"] = self.stats.get("children_new_form", 0) + sum(out)
+        return out
 
     def _promising(self, n: int) -> list:
         """The ``n`` best members by the target with distinct structures; with ``forms``, also

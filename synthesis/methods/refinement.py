@@ -5,7 +5,7 @@ The Gray-coded bit flips of the variational GA search q poorly on the rugged lan
 closed-loop laws; CMA-ES adapts its steps and their correlations.  After the initial population
 (``basis`` evaluations on the basic solution alone -- ``starts`` independent searches of
 ``basis`` each, the best going on; continued past them while its IPOP restarts still improve
-the law when the flight budget left could not hold two epochs of the structure search:
+the law when the flight budget left could not hold one epoch of the structure search:
 ``basis_patience``) and after every epoch (``evals``
 evaluations on each of the ``laws`` best members by the target, distinct structures), one
 CMA-ES per chosen member tunes q on the Gray code's grid; the best refined q replaces the
@@ -31,10 +31,13 @@ from descent_fmus.synthesis.methods.settings import check_settings, setting
 
 __all__ = ["RefineConfig", "Refinement"]
 
-#: [choice] Epochs the structure search needs to deliver a new form with tuned parameters: a form
-#: found in one epoch becomes the basis and has its parameters refined only at that epoch's end,
-#: and its refinement goes on in the next (:meth:`RefineConfig.patience_for`).
-STRUCTURE_EPOCHS = 2
+#: [choice] Epochs of the structure search the flights left after the basic solution's ``basis``
+#: evaluations must hold for its CMA-ES to stop there (:meth:`RefineConfig.patience_for`): with
+#: room for one epoch (its children and the refinement after it: a new form found in it gets its
+#: parameters tuned) the structure search has the rest of the budget; with less, the basic
+#: solution's search goes on.  Two (the previous release) gave the whole of mintime-di's 4 000
+#: flights to that CMA-ES (0 structure generations; docs/methods/network_operator.md).
+STRUCTURE_EPOCHS = 1
 #: [choice] the basic solution's search never runs past ``PATIENCE_CAP`` times its ``basis``
 #: budget (the run's flight budget ends it sooner)
 PATIENCE_CAP = 10
@@ -47,7 +50,7 @@ class RefineConfig:
     basis: int = setting(1000, "CMA-ES evaluations on the basic solution's parameters before "
                                "the structure search (0 = none)", 0, 10_000_000)
     basis_patience: int = setting(1, "when the flight budget left after `basis` cannot hold "
-                                     "two epochs of the structure search, the basic solution's "
+                                     "one epoch of the structure search, the basic solution's "
                                      "CMA-ES goes on until this many IPOP restarts in a row "
                                      "have not improved its best law (0 = stop at `basis`)",
                                   0, 100)
@@ -66,7 +69,7 @@ class RefineConfig:
                              "its own seed and the `basis` budget; the best one's law goes on "
                              "(several basins of a multimodal landscape instead of one)",
                           1, 64)
-    forms: int = setting(0, "forms tuned after every epoch by successive halving: the best "
+    forms: int = setting(4, "forms tuned after every epoch by successive halving: the best "
                             "members by the target with distinct structures each get a short "
                             "CMA-ES, the better half goes on with twice the evaluations, until "
                             "one has `evals` (0 = the `laws` best, `evals` each)", 0, 64)

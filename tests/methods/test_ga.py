@@ -152,8 +152,9 @@ def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise"
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
     psi[0, 3], psi[1, 3], psi[3, 4], psi[2, 4], psi[4, 5] = 1, 1, 1, 1, 1
     cfg = GAConfig(population=16, crossovers=4, lchr=2, epoch=3, basis_rule=basis_rule)
+    # forms=0: the `laws` best refined, `refine_evals` each (the mode these tests pin)
     refine = RefineConfig(evals=refine_evals, laws=2, basis=refine_basis,
-                          basis_patience=patience, starts=starts)
+                          basis_patience=patience, starts=starts, forms=0)
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, decode=_bowl_law, target=Target(0, 1, 100.0),
                          refine=refine, generations=generations, flights=flights)
@@ -237,7 +238,7 @@ def _basis_trace(patience, flights=430):
     """Drive a GA through its basis refinement: (evaluations, IPOP restarts, best key, failed
     restarts in a row) after every CMA-ES generation, and the basis' objectives after it.
     The flight budget 430 leaves 14 after the population (16) and the basis budget (400): less
-    than two epochs of the structure search (3 generations of 16 children each)."""
+    than one epoch of the structure search (3 generations of 16 children each)."""
     a, trace = _refining_ga(3, refine_evals=0, refine_basis=400, patience=patience,
                             flights=flights), []
     while True:
@@ -253,14 +254,15 @@ def _basis_trace(patience, flights=430):
 
 def test_basis_refinement_goes_on_while_its_restarts_improve():
     # basis_patience (the rule's definition): when the flight budget left after the basis
-    # budget cannot hold two epochs of the structure search, the basic solution's CMA-ES goes on
+    # budget cannot hold one epoch of the structure search, the basic solution's CMA-ES goes on
     # past its budget until `patience` IPOP restarts in a row have not improved its best value
     # (by restart_gain); 0 stops at the budget (whole CMA-ES generations: at most one more), as
-    # does a flight budget with room for two epochs
+    # does a flight budget with room for one epoch (48 children; the previous rule asked for
+    # two, and went on here)
     gain = RefineConfig().restart_gain
     fixed, f_fixed = _basis_trace(0)
     assert 400 <= fixed[-1][0] < 400 + 16
-    roomy, _ = _basis_trace(1, flights=16 + 400 + 2 * 48)
+    roomy, _ = _basis_trace(1, flights=16 + 400 + 48)
     assert roomy == fixed
     for patience in (1, 2):
         trace, f = _basis_trace(patience)

@@ -76,7 +76,9 @@ def test_rungs_and_the_designed_budget():
     assert cfg.epoch_evals() == 500
     assert cfg.rungs(3) == [50, 100, 200]      # 3 forms: two halvings (3 -> 2 -> 1)
     assert cfg.rungs(1) == [200]
-    assert RefineConfig(basis=0, evals=200, laws=2).epoch_evals() == 400   # forms=0: as before
+    assert RefineConfig(basis=0, evals=200, laws=2, forms=0).epoch_evals() == 400   # laws x evals
+    # the default (4 forms): 4 x 50 + 2 x 50 + 1 x 100 = 400 (hand count), rungs 50, 100, 200
+    assert RefineConfig().rungs() == [50, 100, 200] and RefineConfig().epoch_evals() == 400
 
 
 def test_successive_halving_allocates_flights_by_promise():
@@ -156,7 +158,10 @@ def test_short_run_on_a_double_integrator_finds_a_switching_law():
                        np.random.default_rng(1),
                        GAConfig(population=32, crossovers=8, lchr=4, epoch=5), structure,
                        basic.psi, basic.with_structure, target=Target(0),
-                       refine=RefineConfig(basis=100, evals=60), flights=1500)
+                       # forms=0: one law refined per epoch; with the default 4 forms this
+                       # short run's 60 evaluations give each new form 15, and seed 1 keeps a
+                       # linear law (measured; the suite's runs measure the default)
+                       refine=RefineConfig(basis=100, evals=60, forms=0), flights=1500)
     loop = RunLoop(ga, lambda laws: Evaluation(F := _di_objectives(laws), np.zeros(len(F)),
                                                [{}] * len(F), len(F)),
                    ParetoArchive(), flights=1500).run()

@@ -310,3 +310,17 @@ def test_nop_lchr0_is_a_variant_beside_the_network_operator_not_a_baseline():
     assert v["no_over_lchr0"] == pytest.approx(0.25)
     assert run.VARIANTS[run.NOP_LCHR0] == ("network-operator", {"lchr": 0})
     assert run.figure_path(Path("d/suite.png"), "held_out") == Path("d/suite-held-out.png")
+
+
+def test_run_py_set_names_recipe_settings_and_rejects_others_with_exit_2(tmp_path):
+    import run
+    # integers stay integers, the rest are floats (the recipe's checks take them as given)
+    assert run.recipe_settings(["refine_forms=4", "p_mutation=1.0"]) == \
+        {"refine_forms": 4, "p_mutation": 1.0}
+    with pytest.raises(ValueError, match="NAME=VALUE"):
+        run.recipe_settings(["refine_forms"])
+    r = subprocess.run([sys.executable, str(SUITE / "run.py"), "--no-run", "--out",
+                        str(tmp_path), "--plot", "", "--set", "no_such_setting=1"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2
+    assert r.stderr.strip().splitlines() == ["error: no_such_setting: unknown setting"]
