@@ -145,7 +145,7 @@ def apply_options(problem, args):
     settings, ``--wide-ops`` and ``--unary``/``--binary`` (CliError for anything it cannot
     take)."""
     from descent_fmus.synthesis.methods.settings import SettingError, settings_of
-    from descent_fmus.synthesis.methods.variational_ga import WIDE_BINARY, WIDE_UNARY
+    from descent_fmus.synthesis.methods.ga_config import WIDE_BINARY, WIDE_UNARY
     from descent_fmus.synthesis.problems.contract import SETTING_GROUPS
     options = list(args.option) + ([f"statistic={args.statistic}"] if args.statistic else [])
     for text in options:

@@ -1,7 +1,7 @@
 """Settings dataclasses whose every field carries its help text and its limits.
 
 The budget of a run, the variational GA's sizes and the CMA-ES refinement are each one frozen
-dataclass (:class:`~synthesis.problems.contract.Budget`, :class:`~synthesis.methods.variational_ga.GAConfig`,
+dataclass (:class:`~synthesis.problems.contract.Budget`, :class:`~synthesis.methods.ga_config.GAConfig`,
 :class:`~synthesis.methods.refinement.RefineConfig`).  Their fields are declared with
 :func:`setting`, and everything else is derived from that one declaration: the command-line
 options of ``descent-fmus synthesize``, the keys of a problem file's tables, the checks and

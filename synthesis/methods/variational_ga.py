@@ -32,55 +32,12 @@ from descent_fmus.synthesis.methods.base import Candidate, Method
 from descent_fmus.synthesis.methods.encoding import (GrayCodec, StructureCodec, bits_array,
                                                      bits_text)
 from descent_fmus.synthesis.methods.form_search import FormSearch
+from descent_fmus.synthesis.methods.ga_config import GAConfig
 from descent_fmus.synthesis.methods.pareto import (Target, crowding_distance, dominance_counts,
                                                    dominance_matrix)
 from descent_fmus.synthesis.methods.refinement import RefineConfig, Refinement
-from descent_fmus.synthesis.methods.settings import check_settings, setting
 
-__all__ = ["GAConfig", "VariationalGA", "PAPER_UNARY", "PAPER_BINARY", "WIDE_UNARY",
-           "WIDE_BINARY"]
-
-#: The operations the variations may use by default: the paper's set (the seeds' numbering).
-PAPER_UNARY = (1, 3, 4, 5, 8, 9, 10, 14, 15)
-PAPER_BINARY = (1, 2)
-#: The authors' wider operation set (``--wide-ops``).
-WIDE_UNARY, WIDE_BINARY = tuple(range(1, 29)), (1, 2, 3, 4)
-
-
-@dataclass(frozen=True)
-class GAConfig:
-    """Sizes and rates of the variational GA."""
-
-    # [choice] maxima: the dominance counts of a population of n laws take n^2 (2 m + 1)
-    # bytes (150 MB at 5000 laws, 2 objectives); a generation's children are 4 crossovers
-    population: int = setting(128, "individuals in the population", 4, 5_000)
-    crossovers: int = setting(32, "crossover attempts per generation (4 children each)",
-                              1, 10_000)
-    lchr: int = setting(8, "variations per individual (0 = parameters of the basic law only)",
-                        0, 256)
-    epoch: int = setting(10, "generations between changes of the basic solution", 1, 1_000_000)
-    p_mutation: float = setting(0.7, "probability that a child mutates", 0.0, 1.0)
-    alpha: float = setting(0.4, "crossover probability (1 + alpha Lh) / (1 + Lh)", 0.0, 1e6)
-    ksearch: int = setting(4, "tournament size for the first parent", 1, 1_000)
-    elite_trim: int = setting(4, "Pareto members whose variation lists are trimmed per epoch",
-                              0, 64)
-    basis_rule: str = setting("target", "the epoch's new basis: 'target' (the best law by "
-                              "the target) or 'compromise' (nearest the utopia point, the lab's "
-                              "rule)", choices=("target", "compromise"))
-    basis_q: float = setting(0.0, "probability that a child takes the basic solution's "
-                                  "parameters instead of its parents' (a variation of the "
-                                  "structure flown with the tuned parameters)", 0.0, 1.0)
-    restart_epochs: int = setting(2, "epochs without a better law by the target after which "
-                                     "every member off the Pareto set is drawn anew around "
-                                     "the best law (variations and parameters; 0 = never)",
-                                  0, 1_000_000)
-    equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
-                                          "flown before is recognised and not flown again "
-                                          "(0 = off)", 0, 256)
-
-    def __post_init__(self):
-        check_settings(self, "ga.")
-
+__all__ = ["VariationalGA"]
 
 @dataclass
 class _Member:

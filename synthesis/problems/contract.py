@@ -12,7 +12,7 @@ candidate law is flown from, and what is computed from those flights:
   initial states; their total violation ranks before the objectives everywhere
   (constraint-domination, :mod:`synthesis.methods.pareto`);
 * the **recipe**: the basic law the search starts from, its :class:`Budget` (flights,
-  generations, wall time, seed), the GA's sizes (:class:`~synthesis.methods.variational_ga.GAConfig`),
+  generations, wall time, seed), the GA's sizes (:class:`~synthesis.methods.ga_config.GAConfig`),
   the CMA-ES refinement (:class:`~synthesis.methods.refinement.RefineConfig`), the CMA-ES
   target, the fixed-structure baselines.
 
@@ -37,7 +37,7 @@ from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.refinement import RefineConfig
 from descent_fmus.synthesis.methods.settings import (SettingError, check_settings,
                                                      replace_settings, setting)
-from descent_fmus.synthesis.methods.variational_ga import PAPER_BINARY, PAPER_UNARY, GAConfig
+from descent_fmus.synthesis.methods.ga_config import PAPER_BINARY, PAPER_UNARY, GAConfig
 from descent_fmus.synthesis.problems.runner import Runner
 
 __all__ = ["Budget", "Constraint", "Outcome", "ProblemOption", "Report", "SynthesisProblem",

@@ -12,7 +12,7 @@ from pathlib import Path
 from descent_fmus.models.controllers.network_operator import (OperationNameError,
                                                               operation_numbers)
 from descent_fmus.synthesis.methods.pareto import Target
-from descent_fmus.synthesis.methods.variational_ga import PAPER_BINARY, PAPER_UNARY
+from descent_fmus.synthesis.methods.ga_config import PAPER_BINARY, PAPER_UNARY
 from descent_fmus.synthesis.problems.contract import DEFAULT_Q_BITS, Budget
 from descent_fmus.synthesis.problems.file_reader import Reader, read_settings
 from descent_fmus.synthesis.problems.limits import MAX_BASELINES
@@ -30,7 +30,7 @@ def read_recipe(rd: Reader, data, law) -> tuple:
     [gp] tables."""
     from descent_fmus.synthesis.methods.gp_config import GPConfig
     from descent_fmus.synthesis.methods.refinement import RefineConfig
-    from descent_fmus.synthesis.methods.variational_ga import GAConfig
+    from descent_fmus.synthesis.methods.ga_config import GAConfig
     ga = rd.table(data, "ga", required=False)
     budget_table = dict(rd.table(data, "budget", required=False))
     for k in ("generations", "seed"):              # older files keep them in [ga]

@@ -10,7 +10,8 @@ from descent_fmus.synthesis.methods.encoding import GrayCodec, StructureCodec
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.pareto import ParetoArchive, Target
 from descent_fmus.synthesis.methods.refinement import RefineConfig
-from descent_fmus.synthesis.methods.variational_ga import GAConfig, VariationalGA
+from descent_fmus.synthesis.methods.ga_config import GAConfig
+from descent_fmus.synthesis.methods.variational_ga import VariationalGA
 from descent_fmus.synthesis.run.evaluation import Evaluation
 from descent_fmus.synthesis.run.loop import RunLoop, archive_state
 from descent_fmus.synthesis.methods.pareto import (crowding_distance, dominance_counts, hypervolume_2d, igd,

@@ -146,8 +146,8 @@ def _t_star(x: float, v: float) -> float:
 def test_short_run_on_a_double_integrator_finds_a_switching_law():
     from scipy.optimize import minimize
     from descent_fmus.synthesis.methods.law import NetworkOperator
-    from descent_fmus.synthesis.methods.variational_ga import (PAPER_BINARY, PAPER_UNARY,
-                                                               GAConfig, VariationalGA)
+    from descent_fmus.synthesis.methods.ga_config import PAPER_BINARY, PAPER_UNARY, GAConfig
+    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
     from descent_fmus.synthesis.methods.encoding import StructureCodec
     from descent_fmus.synthesis.methods.pareto import ParetoArchive
     from descent_fmus.synthesis.run.evaluation import Evaluation
@@ -191,7 +191,8 @@ def test_short_run_on_a_double_integrator_finds_a_switching_law():
 def _stall_ga(seed: int, generations: int, restart_epochs: int = 2):
     from descent_fmus.synthesis.methods.encoding import StructureCodec
     from descent_fmus.synthesis.methods.law import NetworkOperator
-    from descent_fmus.synthesis.methods.variational_ga import GAConfig, VariationalGA
+    from descent_fmus.synthesis.methods.ga_config import GAConfig
+    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
     basic = NetworkOperator.linear([[-1.0, -1.5]], bounds=[(-1.0, 1.0)], size=12)
     ga = VariationalGA(GrayCodec(len(basic.q), 6, 26, -32.0, 32.0), basic.q,
                        np.random.default_rng(seed),

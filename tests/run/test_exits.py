@@ -21,7 +21,7 @@ from processes import cli, wait_empty
 
 from descent_fmus.synthesis.methods.refinement import RefineConfig
 from descent_fmus.synthesis.methods.settings import settings_of
-from descent_fmus.synthesis.methods.variational_ga import GAConfig
+from descent_fmus.synthesis.methods.ga_config import GAConfig
 from descent_fmus.synthesis.problems.contract import Budget
 from descent_fmus.synthesis.problems.limits import MAX_STATES, MAX_STEPS
 from descent_fmus.synthesis.run.resources import MAX_WORKERS
