@@ -35,7 +35,8 @@ from descent_fmus.synthesis.methods.base import Candidate, Method
 from descent_fmus.synthesis.methods.gp_config import GPConfig
 from descent_fmus.synthesis.methods.gp_trees import (compile_trees, primitive_set,
                                                      tree_from_tokens, tree_to_tokens)
-from descent_fmus.synthesis.methods.law import CapacityError, NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.law_fmu import CapacityError
 from descent_fmus.synthesis.methods.pareto import Target
 
 __all__ = ["GPConfig", "GeneticProgramming"]

@@ -29,7 +29,8 @@ from deap import gp
 from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS, BIG, L_MAX,
                                                               NQ_MAX, UNARY, UNARY_OPS, UNIT,
                                                               finite)
-from descent_fmus.synthesis.methods.law import CapacityError, NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.law_fmu import CapacityError
 
 __all__ = ["primitive_set", "compile_trees", "tree_value", "tree_to_tokens",
            "tree_from_tokens", "law_size", "IDENTITY", "ADD"]

@@ -2,7 +2,8 @@
 
 Evaluation uses the one implementation in :mod:`models.controllers.network_operator`, which is
 also what the ``NetworkOperatorController`` FMU runs, so a law evaluated here and the same law
-loaded into the FMU give identical outputs.
+loaded into the FMU give identical outputs; the start values that load it there are made by
+:mod:`synthesis.methods.law_fmu`.
 
 References
 ----------
@@ -18,43 +19,17 @@ from pathlib import Path
 import numpy as np
 
 from descent_fmus.models.controllers.network_operator import (BIG, BINARY_NAMES, BINARY_OPS,
-                                                              L_MAX, NQ_MAX, NU_MAX, NX_MAX,
-                                                              UNARY_NAMES, MatrixError,
+                                                              L_MAX, UNARY_NAMES, MatrixError,
                                                               compile_law, evaluate)
+from descent_fmus.synthesis.methods.law_fmu import start_array, start_values
 
-__all__ = ["NetworkOperator", "MatrixError", "CapacityError", "LawFileError", "MAX_NODES",
-           "MAX_LAW_FILE_BYTES"]
+__all__ = ["NetworkOperator", "MatrixError", "LawFileError", "MAX_NODES", "MAX_LAW_FILE_BYTES"]
 
 #: Most nodes of a law's matrix (the controller FMU holds L_MAX; in-process laws may be larger,
 #: up to this documented maximum: the evaluation is quadratic in the nodes).
 MAX_NODES = 1024
 #: Largest law file [bytes].
 MAX_LAW_FILE_BYTES = 4 * 1_048_576
-
-
-#: Names of the generic controller FMU's variables a law sets (NetworkOperator.start_values).
-_FMU_NAMES = {
-    "upper": np.triu_indices(L_MAX),
-    "psi": [f"psi[{i + 1},{j + 1}]" for i, j in zip(*np.triu_indices(L_MAX))],
-    "q": [f"q[{k + 1}]" for k in range(NQ_MAX)],
-    "bounds": [(f"u_min[{k + 1}]", f"u_max[{k + 1}]", f"out[{k + 1}]") for k in range(NU_MAX)],
-    "scaling": [(f"x_scale[{k + 1}]", f"x_offset[{k + 1}]") for k in range(NX_MAX)],
-}
-#: every name in the order of start_values, and where each block is (NetworkOperator.start_array)
-_FMU_NAMES["all"] = ("nx", "nq", "nu", *_FMU_NAMES["psi"], *_FMU_NAMES["q"],
-                     *(n for t in _FMU_NAMES["bounds"] for n in t),
-                     *(n for t in _FMU_NAMES["scaling"] for n in t))
-_FMU_NAMES["at"] = {key: slice(a, a + n) for key, a, n in (
-    ("psi", 3, len(_FMU_NAMES["psi"])), ("q", 3 + len(_FMU_NAMES["psi"]), NQ_MAX),
-    ("bounds", 3 + len(_FMU_NAMES["psi"]) + NQ_MAX, 3 * NU_MAX),
-    ("scaling", 3 + len(_FMU_NAMES["psi"]) + NQ_MAX + 3 * NU_MAX, 2 * NX_MAX))}
-_FMU_NAMES["template"] = np.zeros(len(_FMU_NAMES["all"]))
-_FMU_NAMES["template"][_FMU_NAMES["at"]["scaling"].start::2] = 1.0
-_FMU_NAMES["upper_flat"] = _FMU_NAMES["upper"][0] * L_MAX + _FMU_NAMES["upper"][1]
-
-
-class CapacityError(MatrixError):
-    """The law is larger than the generic controller FMU holds (sizes fixed at build time)."""
 
 
 class LawFileError(ValueError):
@@ -240,72 +215,14 @@ class NetworkOperator:
         return [lo if v < lo else (hi if v > hi else v)
                 for v, (lo, hi) in zip(self.raw(x), self.bounds)]
 
-    # -- FMU interface --------------------------------------------------------------------
-    def _check_capacity(self) -> None:
-        for what, n, cap in (("nodes", self.size, L_MAX), ("inputs", self.nx, NX_MAX),
-                             ("parameters", len(self.q), NQ_MAX),
-                             ("outputs", len(self.outputs), NU_MAX)):
-            if n > cap:
-                raise CapacityError(f"the law has {n} {what}; the NetworkOperatorController "
-                                    f"FMU holds at most {cap} (sizes are fixed at build time)")
-
+    # -- FMU interface (synthesis.methods.law_fmu) ------------------------------------------
     def start_array(self) -> tuple:
-        """:meth:`start_values` as ``(names, values)``: the same names in the same order (one
-        tuple per process) and their values as one float64 array (the integers exactly), made in
-        a few microseconds -- for the native closed loop, which compares them with the FMU's
-        declared start values as arrays.
-
-        Raises
-        ------
-        CapacityError
-            If the law has more nodes, inputs, parameters or outputs than the FMU holds.
-        """
-        self._check_capacity()
-        names, at = _FMU_NAMES, _FMU_NAMES["at"]
-        v = names["template"].copy()          # zeros; bounds (0, 0, 0), scaling (1, 0) unused
-        v[0], v[1], v[2] = self.nx, len(self.q), len(self.outputs)
-        full = np.zeros((L_MAX, L_MAX))
-        full[:self.size, :self.size] = self.psi
-        np.take(full.ravel(), names["upper_flat"], out=v[at["psi"]])
-        q0 = at["q"].start
-        v[q0:q0 + len(self.q)] = self.q
-        b = at["bounds"].start
-        for (lo, hi), o in zip(self.bounds, self.outputs):
-            v[b], v[b + 1], v[b + 2] = lo, hi, o
-            b += 3
-        s = at["scaling"].start
-        for scale, offset in zip(self.input_scale, self.input_offset):
-            v[s], v[s + 1] = scale, offset
-            s += 2
-        return names["all"], v
+        """:func:`synthesis.methods.law_fmu.start_array` of this law."""
+        return start_array(self)
 
     def start_values(self) -> dict:
-        """Start values that load this law into the generic NetworkOperatorController FMU.
-
-        Raises
-        ------
-        CapacityError
-            If the law has more nodes, inputs, parameters or outputs than the FMU holds.
-        """
-        self._check_capacity()
-        L = self.size
-        # once per candidate on the evaluation's hot path: the names are made once per process
-        # and the matrix is read as one array (the upper triangle, row by row: psi[1,1],
-        # psi[1,2], ..., the order of the controller's variables)
-        names = _FMU_NAMES
-        vals = {"nx": self.nx, "nq": len(self.q), "nu": len(self.outputs)}
-        full = np.zeros((L_MAX, L_MAX), dtype=np.int64)
-        full[:L, :L] = self.psi
-        vals.update(zip(names["psi"], full[names["upper"]].tolist()))
-        vals.update(zip(names["q"], self.q + [0.0] * (NQ_MAX - len(self.q))))
-        for k, (lo_name, hi_name, out_name) in enumerate(names["bounds"]):
-            lo, hi = self.bounds[k] if k < len(self.outputs) else (0.0, 0.0)
-            vals[lo_name], vals[hi_name] = lo, hi
-            vals[out_name] = self.outputs[k] if k < len(self.outputs) else 0
-        for k, (scale_name, offset_name) in enumerate(names["scaling"]):
-            vals[scale_name] = self.input_scale[k] if k < self.nx else 1.0
-            vals[offset_name] = self.input_offset[k] if k < self.nx else 0.0
-        return vals
+        """:func:`synthesis.methods.law_fmu.start_values` of this law."""
+        return start_values(self)
 
     # -- persistence ----------------------------------------------------------------------
     def to_dict(self, formula: bool = True) -> dict:

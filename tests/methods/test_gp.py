@@ -23,7 +23,8 @@ from descent_fmus.synthesis.methods.gp_config import GPConfig
 from descent_fmus.synthesis.methods.gp_trees import (compile_trees, law_size, primitive_set,
                                                      tree_from_tokens, tree_to_tokens,
                                                      tree_value)
-from descent_fmus.synthesis.methods.law import CapacityError, NetworkOperator
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.law_fmu import CapacityError
 from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.settings import SettingError
 
