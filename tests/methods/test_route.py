@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from descent_fmus.synthesis.methods.route import (RouteError, RouteNotTracedError,
-                                                  RouteProblem, RouteTable, route_values,
-                                                  trace_route)
+from descent_fmus.synthesis.methods.route import trace_route
+from descent_fmus.synthesis.methods.route_problem import (RouteError, RouteNotTracedError,
+                                                          RouteProblem, RouteTable, route_values)
 from test_direct_method import di_jac, double_integrator
 
 TF = 2.0 * math.pi

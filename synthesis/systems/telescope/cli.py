@@ -148,7 +148,7 @@ def run_write_programs(args) -> int:
 
 # -- route ---------------------------------------------------------------------------------------
 def _add_route(sub) -> None:
-    from descent_fmus.synthesis.methods.route import JOINTS, RULES
+    from descent_fmus.synthesis.methods.route_problem import JOINTS, RULES
     from descent_fmus.synthesis.systems.telescope.route import EPS, INTERVALS, PAPER_STAGES
 
     p = sub.add_parser("route", help="trace a route within eps: the telescope follows another "
@@ -183,7 +183,7 @@ def _add_route(sub) -> None:
 
 def run_route(args) -> int:
     from descent_fmus.synthesis.methods.direct_method import ConvergenceError
-    from descent_fmus.synthesis.methods.route import RouteError, RouteNotTracedError
+    from descent_fmus.synthesis.methods.route_problem import RouteError, RouteNotTracedError
     from descent_fmus.synthesis.systems.telescope.reorientation import RateLimitTooSmallError
     from descent_fmus.synthesis.systems.telescope.route import (plot_route, replay_route,
                                                                 trace)

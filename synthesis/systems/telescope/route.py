@@ -7,7 +7,7 @@ motion of another spacecraft, as a chain of two-point problems solved by the dir
   octahedron (T = 80 s); it is traced by a telescope-like craft with another inertia and six
   gyrodynes in a pyramid (20 deg between every gimbal axis and the pyramid's height);
 * :func:`make_route` -- solves the route craft's reorientation by the direct method and returns
-  its (lambda, omega)(t) as a :class:`~synthesis.methods.route.RouteTable` (cubic Hermite between
+  its (lambda, omega)(t) as a :class:`~synthesis.methods.route_problem.RouteTable` (cubic Hermite between
   the RK4 sub-steps, with the rates from the equations);
 * :func:`trace` -- traces the route with the tracer (:func:`synthesis.methods.route.trace_route`:
   halving as in the thesis, or the adaptive rule; optional gimbal-rate limits);
@@ -35,8 +35,9 @@ from descent_fmus.models.telescope import (DT_INTEGRATION, TelescopeParams, iner
                                            make_rigid_rhs, octahedron_axes, pyramid_axes,
                                            quat_to_matrix, rigid_jacobian, singularity_measure)
 from descent_fmus.synthesis.methods.direct_method import DirectResult, solve
-from descent_fmus.synthesis.methods.route import (RouteProblem, RouteResult, RouteTable,
-                                                  route_values, trace_route)
+from descent_fmus.synthesis.methods.route import trace_route
+from descent_fmus.synthesis.methods.route_problem import (RouteProblem, RouteResult, RouteTable,
+                                                          route_values)
 from descent_fmus.synthesis.systems.telescope.reorientation import (GRID_STEP, STATE_NAMES,
                                                                     RateLimitTooSmallError,
                                                                     check_reachable,
@@ -117,7 +118,7 @@ def make_route(params: TelescopeParams = ROUTE_CRAFT, x0=ROUTE_X0, lam_f=ROUTE_L
 
 @dataclass
 class RouteTrace:
-    """A traced route: the route, the trace (:class:`~synthesis.methods.route.RouteResult`), the
+    """A traced route: the route, the trace (:class:`~synthesis.methods.route_problem.RouteResult`), the
     tracer's parameters and the options used."""
 
     route: Route
@@ -159,15 +160,15 @@ def trace(eps=EPS, rule: str = "halving", joints: str = "continuous", u_max=None
 
     The tracer starts on the route (its quaternion and body rate at t = 0) with gimbal angles
     ``beta0``; ``w0`` [rad/s] overrides its initial body rate (a start away from the route is
-    refused).  See :class:`synthesis.methods.route.RouteProblem` for the other options.
+    refused).  See :class:`synthesis.methods.route_problem.RouteProblem` for the other options.
 
     Raises
     ------
-    synthesis.methods.route.RouteError
+    synthesis.methods.route_problem.RouteError
         Ill-posed: eps <= 0, a start away from the route, ...
     RateLimitTooSmallError
         ``u_max`` cannot follow the route (closed form, before tracing).
-    synthesis.methods.route.RouteNotTracedError
+    synthesis.methods.route_problem.RouteNotTracedError
         No partition within ``max_stages`` keeps the trace within eps (e.g. a rate limit too
         small that the closed-form check lets through).
     """
