@@ -15,10 +15,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from descent_fmus.synthesis.systems.lunar_landing.solution import plot_solution, solve_landing
 from descent_fmus.synthesis.systems.lunar_landing.study import (LandingLoops, dispersion,
                                                                 dispersion_table,
-                                                                plot_dispersion, plot_solution,
-                                                                solve_landing)
+                                                                plot_dispersion)
 
 DOCS = Path(__file__).resolve().parent / "figures"
 

@@ -4,8 +4,9 @@ Files of this system: ``models/lunar_landing.py`` (equations, closed-form arcs, 
 exact optimum, the LunarLander FMU), ``models/controllers/lunar_landing_program.py`` (the
 LandingProgram FMU: the optimal open-loop program), ``models/controllers/lunar_landing_switch.py``
 (the LandingSwitch FMU: the optimal law as feedback), this package (``problems`` the Pontryagin
-problems and the closed-loop wirings, ``study`` the shooting solve, the closed loops through the
-FMUs, the dispersion study and the figures, ``cli`` its commands), ``tests/test_lunar_landing_*.py``
+problems and the closed-loop wirings, ``solution`` the shooting solve and the paper's figures,
+``study`` the closed loops through the FMUs, the dispersion study and its figures, ``cli`` its
+commands), ``tests/test_lunar_landing_*.py``
 (and ``tests/methods/test_shooting.py`` for the solver), ``benchmarks/lunar_landing.py`` and
 ``docs/make_lunar_landing_figures.py``.  The generic piece it uses: the shooting solver
 ``synthesis.methods.shooting``.

@@ -62,7 +62,7 @@ def _params(args) -> LanderParams:
 
 def _guess(values) -> tuple:
     if values is None:
-        from descent_fmus.synthesis.systems.lunar_landing.study import DEFAULT_GUESS
+        from descent_fmus.synthesis.systems.lunar_landing.solution import DEFAULT_GUESS
         return DEFAULT_GUESS
     out = []
     for k, text in enumerate(values):
@@ -83,7 +83,7 @@ def _guess(values) -> tuple:
 def run_solve(args) -> int:
     from descent_fmus.models.params import ParameterError
     from descent_fmus.synthesis.methods.shooting import ShootingError
-    from descent_fmus.synthesis.systems.lunar_landing.study import solve_landing
+    from descent_fmus.synthesis.systems.lunar_landing.solution import solve_landing
 
     p = _params(args)
     guess = _guess(args.guess)
@@ -111,7 +111,7 @@ def run_solve(args) -> int:
     if args.table1:
         summary["table1"] = _table1(args, p, lines)
     if args.plot:
-        from descent_fmus.synthesis.systems.lunar_landing.study import plot_solution
+        from descent_fmus.synthesis.systems.lunar_landing.solution import plot_solution
         plot_solution(sol, args.plot)
         summary["plot"] = str(args.plot)
         lines.append(f"  figures: {args.plot}")
@@ -124,7 +124,7 @@ def _table1(args, p, lines) -> list:
     from descent_fmus.synthesis.methods.shooting import ShootingError
     from descent_fmus.synthesis.systems.lunar_landing.problems import (PAPER_GUESSES,
                                                                        PAPER_ITERATIONS)
-    from descent_fmus.synthesis.systems.lunar_landing.study import solve_landing
+    from descent_fmus.synthesis.systems.lunar_landing.solution import solve_landing
     rows = []
     lines.append("  Table 1 (paper: 4, 6, 5 iterations, classical = modified):")
     for g, paper in zip(PAPER_GUESSES, PAPER_ITERATIONS):
