@@ -24,7 +24,7 @@ from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.fmi.native.builders.ccode import OperationError, law_c, operations_c, render
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
-from test_native_law import DESCENT_LAW, REENTRY_LAW, every_operation_law
+from law_samples import DESCENT_LAW, REENTRY_LAW, every_operation_law
 
 # a five-term law of an earlier default reentry run: its readable form is known by hand
 FIVE_TERM_LAW = REENTRY_LAW.parent / "reentry_five_term_law.json"

@@ -34,7 +34,7 @@ from descent_fmus.synthesis.fmi.native.builders.controllers import (
     build_network_operator_controller)
 from descent_fmus.synthesis.methods.law import NetworkOperator
 
-from test_native_law import start
+from fmi_calls import start
 
 ATAN2, HYPOT = operation_numbers(["atan2", "hypot"], binary=True)
 WRAP, = operation_numbers(["wrap"])

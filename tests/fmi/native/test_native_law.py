@@ -23,7 +23,6 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.ssp.ssd import read_ssd
 from fmpy.validation import validate_fmu
 
-from descent_fmus.models.controllers.network_operator import BINARY, UNARY
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.fmi.law_files import export_law_files
@@ -34,30 +33,13 @@ from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
 from fmi_calls import bits, start
+from law_samples import DESCENT_LAW, REENTRY_LAW, every_operation_law
 
-REF = Path(__file__).resolve().parents[2] / "reference"
-REENTRY_LAW = REF / "reentry_best_law.json"
-DESCENT_LAW = REF / "lunar_descent_law.json"
 #: extreme inputs: zeros of both signs, the largest and smallest doubles, inf, NaN, the clamp
 EXTREMES = [0.0, -0.0, 1e300, -1e300, math.inf, -math.inf, math.nan, 1e-300, -1e-300,
             5e-324, 1.7976931348623157e308, 1e8, -1e8, 1e-7, -1e-7, 1.0, -1.0, 0.01, 18.5]
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (CI installs gcc)")
-
-
-def every_operation_law(rng, L: int = 32, nx: int = 3, nq: int = 4) -> NetworkOperator:
-    """A law on which every unary and every binary operation acts (random arcs, scaled inputs,
-    two outputs with wide bounds so that the raw node values show)."""
-    psi = np.zeros((L, L), dtype=int)
-    ns = nx + nq
-    unary = list(rng.permutation(np.arange(1, len(UNARY))))
-    for j in range(ns, L):
-        psi[j, j] = 1 + (j - ns) % (len(BINARY) - 1)
-        for i in rng.choice(j, size=min(j, 3), replace=False):
-            psi[i, j] = unary.pop() if unary else rng.integers(1, len(UNARY))
-    return NetworkOperator(psi, nx=nx, q=list(rng.uniform(-4, 4, nq)), outputs=[L, L - 3],
-                           bounds=[(-1e9, 1e9), (-0.2, 0.3)], input_scale=[2.0, 0.5, -1.0],
-                           input_offset=[0.1, -3.0, 0.0])
 
 
 def inputs(rng, nx: int, n: int) -> list:
