@@ -25,7 +25,7 @@ import statistics
 import time
 from pathlib import Path
 
-from descent_fmus.synthesis.fmi.closed_loop import load_slave
+from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.registry import native_plants
 from descent_fmus.synthesis.paths import fmu_dir
 

@@ -70,7 +70,7 @@ def one_run(out: Path, fmus, sig: int, delay: float) -> tuple:
 def fmu_calls_child(unsafe: bool) -> int:
     """The ``fmu-calls`` scene's process: flights until a signal; its exit code says how the
     signal came out (128 + signal: a stop; 2: an FMU error)."""
-    from descent_fmus.synthesis.fmi.closed_loop import FMUError
+    from descent_fmus.synthesis.fmi.slave import FMUError
     from descent_fmus.synthesis.run import signals
     from descent_fmus.synthesis.systems.reentry.flight import load_loop, scenario_params
     from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law

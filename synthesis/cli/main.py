@@ -113,7 +113,7 @@ def main(argv=None, last_words: list | None = None) -> int:
     os.environ.setdefault("MPLBACKEND", "Agg")
     from descent_fmus.models.controllers.network_operator import MatrixError
     from descent_fmus.models.params import ParameterError
-    from descent_fmus.synthesis.fmi.closed_loop import FMUError
+    from descent_fmus.synthesis.fmi.slave import FMUError
     from descent_fmus.synthesis.run.signals import RunInterrupted
 
     import faulthandler

@@ -24,12 +24,9 @@ import numpy as np
 from fmpy.fmi2 import fmi2True
 
 from descent_fmus.synthesis.fmi.description.declared import declared_starts
-from descent_fmus.synthesis.fmi.slave import (CFunctions, FMUError, LoadedFMU, load_slave,
-                                              not_an_output)
-from descent_fmus.synthesis.paths import FMUNotFoundError
+from descent_fmus.synthesis.fmi.slave import CFunctions, FMUError, load_slave, not_an_output
 
-__all__ = ["Wiring", "Stop", "STATUS_STOP", "ClosedLoop", "ClosedLoopResult",
-           "FMUNotFoundError", "FMUError", "LoadedFMU", "load_slave", "not_an_output"]
+__all__ = ["Wiring", "Stop", "STATUS_STOP", "ClosedLoop", "ClosedLoopResult"]
 
 
 @dataclass(frozen=True)

@@ -26,7 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, FMUError, Wiring
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoopResult, Wiring
+
+from descent_fmus.synthesis.fmi.slave import FMUError
 from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
 from descent_fmus.synthesis.fmi.start_values import StartValues
 

@@ -9,7 +9,8 @@ from fmpy.ssp.ssd import read_ssd
 from fmpy.validation import validate_fmu
 
 from descent_fmus.models.reentry import ReentryParams, downrange, simulate
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUNotFoundError
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.paths import FMUNotFoundError
 from descent_fmus.synthesis.systems.reentry import wiring as spec
 from descent_fmus.synthesis.systems.reentry.flight import fly, load_loop
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
@@ -117,7 +118,7 @@ def test_invalid_parameter_is_reported_with_its_name(fmu_dir, plant):
     # a C compiler exists) turns it into fmi2Error
     from fmpy.fmi1 import FMICallException
 
-    from descent_fmus.synthesis.fmi.closed_loop import load_slave
+    from descent_fmus.synthesis.fmi.slave import load_slave
     with zipfile.ZipFile(fmu_dir / f"{plant}.fmu") as z:
         wrapped = f"binaries/linux64/{plant}.pythonfmu.so" in z.namelist()
     log: list = []

@@ -16,7 +16,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 SCRIPT = """
 import gc
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.slave import FMUError
 from descent_fmus.synthesis.systems.reentry import wiring as reentry
 from descent_fmus.synthesis.systems.mars import wiring as mars
 from descent_fmus.synthesis.systems.lunar_landing.problems import FEEDBACK_WIRING, PROGRAM_WIRING

@@ -9,7 +9,7 @@ import pytest
 
 from descent_fmus.models.controllers.network_operator import (BIG, L_MAX, UNARY, BINARY, MatrixError,
                                                  PAPER_Q)
-from descent_fmus.synthesis.fmi.closed_loop import FMUError, load_slave
+from descent_fmus.synthesis.fmi.slave import FMUError, load_slave
 from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
 from descent_fmus.synthesis.methods.law_fmu import CapacityError
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law

@@ -27,7 +27,7 @@ from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS
                                                               UNARY_OPS, OperationNameError,
                                                               compile_law, evaluate,
                                                               operation_numbers)
-from descent_fmus.synthesis.fmi.closed_loop import load_slave
+from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.fmi.native.builders.build import COMPILE_FLAGS, find_compiler
 from descent_fmus.synthesis.fmi.native.builders.ccode import law_c, operations_c
 from descent_fmus.synthesis.fmi.native.builders.controllers import (

@@ -376,7 +376,7 @@ def replay_program(prog: Program, fmu_dir, p: ReentryParams = ReentryParams(),
     point k * t_seg whatever the state.  Returns the plant's final outputs (``load_max``,
     ``L``, ``status``, ...) and, for the outputs named in ``record``, their values at every
     communication point under ``"trace"`` (with ``"t"`` and ``"u"``)."""
-    from descent_fmus.synthesis.fmi.closed_loop import load_slave
+    from descent_fmus.synthesis.fmi.slave import load_slave
     from descent_fmus.synthesis.paths import require_fmu
     fmu = load_slave(require_fmu(Path(fmu_dir) / "Reentry.fmu"), "plant")
     md = fmu.model

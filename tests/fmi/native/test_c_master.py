@@ -13,7 +13,8 @@ import numpy as np
 import pytest
 
 from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop, MasterUnavailable, master_library
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.slave import FMUError
 from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop, native_fmus
 from descent_fmus.synthesis.fmi.start_values import StartValues
 

@@ -22,7 +22,7 @@ from fmpy.validation import validate_fmu
 
 from descent_fmus.models.controllers.network_operator import BINARY, UNARY
 from descent_fmus.models.controllers.program_table import program_values
-from descent_fmus.synthesis.fmi.closed_loop import load_slave
+from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import native_controllers

@@ -23,7 +23,9 @@ from fmpy import read_model_description, simulate_fmu
 from fmpy.ssp.ssd import read_ssd
 from fmpy.validation import validate_fmu
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+
+from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.fmi.law_files import export_law_files
 from descent_fmus.synthesis.methods.law import NetworkOperator

@@ -27,7 +27,7 @@ import pytest
 from fmpy import read_model_description, simulate_fmu
 from fmpy.validation import validate_fmu
 
-from descent_fmus.synthesis.fmi.closed_loop import load_slave
+from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.fmi.native.builders.build import c_file, find_compiler
 from descent_fmus.synthesis.fmi.native.builders.plant_fmu import build_plant_fmu
 from descent_fmus.synthesis.registry import native_plants

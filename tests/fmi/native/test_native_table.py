@@ -8,7 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+
+from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.fmi.native.builders.table_fmu import (build_program_fmu, build_step_program_fmu,
                                                      hold_program_fmu, landing_program_fmu,

@@ -12,7 +12,7 @@ from fmpy import simulate_fmu
 
 from descent_fmus.models.integrators import CRASHED, LEFT_DOMAIN, REACHED
 from descent_fmus.models.lunar_descent import DescentParams, simulate
-from descent_fmus.synthesis.fmi.closed_loop import FMUError
+from descent_fmus.synthesis.fmi.slave import FMUError
 from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem

@@ -132,7 +132,8 @@ def test_program_closed_loop_carries_the_exact_optimum(fmu_dir):
 
 
 def test_fmus_reject_bad_parameters(fmu_dir):
-    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
+    from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+    from descent_fmus.synthesis.fmi.slave import FMUError
     from descent_fmus.synthesis.systems.lunar_landing.problems import (FEEDBACK_WIRING,
                                                                        PROGRAM_WIRING)
     with ClosedLoop(FEEDBACK_WIRING, fmu_dir / "LunarLander.fmu",

@@ -17,7 +17,8 @@ from descent_fmus.models.controllers import mars_bellman as mb
 from descent_fmus.models.integrators import LEFT_DOMAIN, REACHED, RUNNING
 from descent_fmus.models.mars import MarsParams, rhs
 from descent_fmus.models.mars_6dof import initial_state6, rhs6
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError, load_slave
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.slave import FMUError, load_slave
 from descent_fmus.synthesis.systems.mars.wiring import WIRING
 
 from test_mars_model import random_law_inputs

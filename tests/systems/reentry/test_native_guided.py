@@ -12,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, load_slave
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+
+from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
 from descent_fmus.synthesis.methods.law import NetworkOperator
 

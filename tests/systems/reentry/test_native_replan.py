@@ -147,7 +147,7 @@ def test_replan_twin_without_lp_steps_flies_bit_for_bit(fmu_dir, guided_twin):
 def test_replan_twin_outputs_without_lp_steps_at_every_step(fmu_dir, guided_twin):
     # the controllers alone fed one recorded flight: the plan's correction, its predicted miss
     # and the predictions made, equal at every communication point
-    from descent_fmus.synthesis.fmi.closed_loop import load_slave
+    from descent_fmus.synthesis.fmi.slave import load_slave
     from test_native_guided import INPUTS
     from fmi_calls import start
     (p, h0) = _samples(4)[0]                               # one the plan lands
@@ -190,7 +190,7 @@ def test_replan_twin_flies_as_the_pythonfmu_replanner(fmu_dir, guided_twin):
 
 
 def test_replan_twin_refuses_a_prediction_step_it_cannot_record(fmu_dir, guided_twin):
-    from descent_fmus.synthesis.fmi.closed_loop import load_slave
+    from descent_fmus.synthesis.fmi.slave import load_slave
     from fmi_calls import start
     log = []
     fmu = load_slave(guided_twin, "r", log)

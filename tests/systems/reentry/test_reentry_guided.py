@@ -15,7 +15,8 @@ from scipy.integrate import solve_ivp
 
 from descent_fmus.models.controllers.reentry_npc import gate_weight, predict_range
 from descent_fmus.models.reentry import ReentryParams, deviations, initial_state, loads, rhs
-from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop, FMUError
+from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
+from descent_fmus.synthesis.fmi.slave import FMUError
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.systems.reentry.guidance import (GUIDED_LAW_FILE, GUIDED_WIRING,

@@ -48,7 +48,7 @@ def _controller(**params):
 
 def _replay(p: ReentryParams, control, fmu_dir, step: float = 2.0) -> dict:
     """The Reentry FMU under ``control(x)`` set at every communication point (``step`` s)."""
-    from descent_fmus.synthesis.fmi.closed_loop import load_slave
+    from descent_fmus.synthesis.fmi.slave import load_slave
     fmu = load_slave(fmu_dir / "Reentry.fmu", "plant")
     vr = {v.name: v.valueReference for v in fmu.model.modelVariables}
     try:
