@@ -18,7 +18,7 @@
   (:mod:`descent_fmus.synthesis.run.resources`).
 * ``<!-- operations -->`` becomes the tables of the network operator's unary and binary
   operations, read from the one operation table (:mod:`descent_fmus.models.controllers.
-  network_operator`): number, name, guarded definition, unit element.
+  operation_table`): number, name, guarded definition, unit element.
 
 mkdocs.yml names this file under ``hooks:``; it imports the installed package.
 """
@@ -140,7 +140,7 @@ def limits_table() -> str:
 
 def operations_table() -> str:
     """The unary and the binary operations, as the one operation table defines them."""
-    from descent_fmus.models.controllers.network_operator import BINARY_OPS, UNARY_OPS
+    from descent_fmus.models.controllers.operation_table import BINARY_OPS, UNARY_OPS
 
     def unit(v):
         return "NaN (the first arc sets the node)" if v != v else f"{v:g}"

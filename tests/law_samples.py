@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.models.controllers.network_operator import BINARY, UNARY
+from descent_fmus.models.controllers.operation_table import BINARY, UNARY
 from descent_fmus.synthesis.methods.law import NetworkOperator
 
 REF = Path(__file__).resolve().parent / "reference"

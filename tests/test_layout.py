@@ -276,6 +276,8 @@ def test_methods_know_no_system():
     # the general methods hold no system's numbers: no import of a system or of a plant model
     # (only the network-operator operation table, the fixed-step integrators and RK4 helpers)
     allowed = {"descent_fmus.models.controllers.network_operator",
+               "descent_fmus.models.controllers.operation_table",
+               "descent_fmus.models.controllers.law_interpreter",
                "descent_fmus.models.integrators", "descent_fmus.models.rk4_input"}
     modules = _modules()
     for name, path in modules.items():
@@ -289,7 +291,8 @@ def test_methods_know_no_system():
 SHARED_MODELS = {"descent_fmus.models", "descent_fmus.models.controllers",
                  *(f"descent_fmus.models.{m}" for m in (
                      "params", "integrators", "fmu_support", "pythonfmu_compat", "rk4_input",
-                     "traceable", "controllers.network_operator", "controllers.program_table"))}
+                     "traceable", "controllers.network_operator", "controllers.operation_table",
+                     "controllers.law_interpreter", "controllers.program_table"))}
 CORE = ("fmi", "run", "methods", "problems", "cli")
 
 

@@ -111,7 +111,7 @@ def main(argv=None, last_words: list | None = None) -> int:
     stderr."""
     # The command line chooses the matplotlib backend (files only); library code never does.
     os.environ.setdefault("MPLBACKEND", "Agg")
-    from descent_fmus.models.controllers.network_operator import MatrixError
+    from descent_fmus.models.controllers.law_interpreter import MatrixError
     from descent_fmus.models.params import ParameterError
     from descent_fmus.synthesis.fmi.slave import FMUError
     from descent_fmus.synthesis.run.signals import RunInterrupted

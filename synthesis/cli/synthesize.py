@@ -39,8 +39,8 @@ def _setting_type(info, flag: str):
 def _operations(binary: bool):
     """An argparse type: comma-separated operation names or numbers -> their numbers."""
     def convert(text: str) -> tuple:
-        from descent_fmus.models.controllers.network_operator import (OperationNameError,
-                                                                      operation_numbers)
+        from descent_fmus.models.controllers.operation_table import (OperationNameError,
+                                                                     operation_numbers)
         try:
             return operation_numbers(text.split(","), binary=binary)
         except OperationNameError as exc:

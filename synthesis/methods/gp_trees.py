@@ -2,7 +2,7 @@
 compilation into network-operator laws.
 
 The primitive set of :func:`primitive_set` holds the problem's operations -- the very functions
-of the operation tables in :mod:`models.controllers.network_operator` -- so a tree means what
+of the operation tables in :mod:`models.controllers.operation_table` -- so a tree means what
 the law it compiles to computes.  :func:`compile_trees` turns one tree per output into one
 :class:`~synthesis.methods.law.NetworkOperator` (binary nodes, unary arcs, the ephemeral
 constants as its parameters q); every GP law is then flown by the same evaluator and exported
@@ -26,9 +26,9 @@ import random
 import numpy as np
 from deap import gp
 
-from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS, BIG, L_MAX,
-                                                              NQ_MAX, UNARY, UNARY_OPS, UNIT,
-                                                              finite)
+from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX
+from descent_fmus.models.controllers.operation_table import (BINARY, BINARY_OPS, BIG, UNARY,
+                                                             UNARY_OPS, UNIT, finite)
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.law_fmu import CapacityError
 
@@ -41,7 +41,7 @@ IDENTITY, ADD = 1, 1
 
 def _guarded(f):
     """``f`` with the evaluation's guard: an exception (never met: the operands are finite)
-    gives BIG, as in :func:`models.controllers.network_operator.evaluate`."""
+    gives BIG, as in :func:`models.controllers.law_interpreter.evaluate`."""
     def call(*args):
         try:
             return f(*args)

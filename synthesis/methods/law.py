@@ -1,6 +1,6 @@
 """The :class:`NetworkOperator` type: a control law as matrix + parameters, validated.
 
-Evaluation uses the one implementation in :mod:`models.controllers.network_operator`, which is
+Evaluation uses the one implementation in :mod:`models.controllers.law_interpreter`, which is
 also what the ``NetworkOperatorController`` FMU runs, so a law evaluated here and the same law
 loaded into the FMU give identical outputs; the start values that load it there are made by
 :mod:`synthesis.methods.law_fmu`.
@@ -18,9 +18,10 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.models.controllers.network_operator import (BIG, BINARY_NAMES, BINARY_OPS,
-                                                              L_MAX, UNARY_NAMES, MatrixError,
-                                                              compile_law, evaluate)
+from descent_fmus.models.controllers.law_interpreter import MatrixError, compile_law, evaluate
+from descent_fmus.models.controllers.network_operator import L_MAX
+from descent_fmus.models.controllers.operation_table import (BIG, BINARY_NAMES, BINARY_OPS,
+                                                             UNARY_NAMES)
 from descent_fmus.synthesis.methods.law_fmu import start_array, start_values
 
 __all__ = ["NetworkOperator", "MatrixError", "LawFileError", "MAX_NODES", "MAX_LAW_FILE_BYTES"]

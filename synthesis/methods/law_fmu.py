@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from descent_fmus.models.controllers.network_operator import (L_MAX, NQ_MAX, NU_MAX, NX_MAX,
-                                                              MatrixError)
+from descent_fmus.models.controllers.law_interpreter import MatrixError
+from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX, NU_MAX, NX_MAX
 
 __all__ = ["CapacityError", "start_array", "start_values"]
 

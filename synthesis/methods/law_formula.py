@@ -4,7 +4,7 @@ A law found by the GA is a graph full of constant sub-expressions (``sig2(3.8237
 ``inv(2.27075)``) and of repeated branches; printed as the network operator stores it, it is a
 nest of a thousand characters.  :func:`readable` turns the graph into SymPy expressions:
 
-* every operation of the one operation table (:mod:`models.controllers.network_operator`) that
+* every operation of the one operation table (:mod:`models.controllers.operation_table`) that
   is plain algebra or a SymPy function enters through its ``sym`` form (so ``z**2``, ``tanh(z/2)``,
   ``+`` and ``*`` simplify), every other one as a named function (``inv``, ``sgn``,
   ``heaviside``, ``max``, ...);
@@ -31,8 +31,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from functools import lru_cache
 
-from descent_fmus.models.controllers.network_operator import (BINARY_OPS, UNARY_OPS, finite,
-                                                              python_function)
+from descent_fmus.models.controllers.operation_table import (BINARY_OPS, UNARY_OPS, finite,
+                                                             python_function)
 
 __all__ = ["Readable", "readable", "readable_cached", "sympy_functions", "legend"]
 

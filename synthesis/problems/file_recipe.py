@@ -9,8 +9,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from descent_fmus.models.controllers.network_operator import (OperationNameError,
-                                                              operation_numbers)
+from descent_fmus.models.controllers.operation_table import OperationNameError, operation_numbers
 from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.ga_config import PAPER_BINARY, PAPER_UNARY
 from descent_fmus.synthesis.problems.contract import DEFAULT_Q_BITS, Budget

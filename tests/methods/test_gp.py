@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 from deap import gp
 
-from descent_fmus.models.controllers.network_operator import (BINARY, L_MAX, UNARY, UNIT,
-                                                              finite)
+from descent_fmus.models.controllers.network_operator import L_MAX
+from descent_fmus.models.controllers.operation_table import BINARY, UNARY, UNIT, finite
 from descent_fmus.synthesis.methods.gp import GeneticProgramming
 from descent_fmus.synthesis.methods.gp_config import GPConfig
 from descent_fmus.synthesis.methods.gp_trees import (compile_trees, law_size, primitive_set,

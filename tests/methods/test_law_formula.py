@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import sympy
 
-from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS, BIG, UNARY,
-                                                              UNARY_OPS)
+from descent_fmus.models.controllers.operation_table import (BINARY, BINARY_OPS, BIG, UNARY,
+                                                             UNARY_OPS)
 from descent_fmus.synthesis.methods.law_formula import readable, sympy_functions
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.fmi.native.builders.build import find_compiler

@@ -7,8 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from descent_fmus.models.controllers.network_operator import (BIG, L_MAX, UNARY, BINARY, MatrixError,
-                                                 PAPER_Q)
+from descent_fmus.models.controllers.law_interpreter import MatrixError
+from descent_fmus.models.controllers.network_operator import L_MAX, PAPER_Q
+from descent_fmus.models.controllers.operation_table import BIG, UNARY, BINARY
 from descent_fmus.synthesis.fmi.slave import FMUError, load_slave
 from descent_fmus.synthesis.methods.law import LawFileError, NetworkOperator
 from descent_fmus.synthesis.methods.law_fmu import CapacityError

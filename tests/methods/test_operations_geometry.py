@@ -1,7 +1,7 @@
 """Operations of geometry and switching: binary ``atan2`` and ``hypot``, unary ``wrap``.
 
 Oracles: the Python evaluation of the one operation table
-(``models/controllers/network_operator.py``) for the native matrix interpreter (the native
+(``models/controllers/operation_table.py``) for the native matrix interpreter (the native
 ``NetworkOperatorController`` FMU, ``c/no_interp.c``) and for the exported C law (``law.c``,
 compiled here) --
 bitwise (``struct.pack('<d')``), on random inputs and on extremes (+-0, +-1e8, tiny and
@@ -23,10 +23,10 @@ import sys
 import numpy as np
 import pytest
 
-from descent_fmus.models.controllers.network_operator import (BINARY, BINARY_OPS, BIG, UNARY,
-                                                              UNARY_OPS, OperationNameError,
-                                                              compile_law, evaluate,
-                                                              operation_numbers)
+from descent_fmus.models.controllers.law_interpreter import compile_law, evaluate
+from descent_fmus.models.controllers.operation_table import (BINARY, BINARY_OPS, BIG, UNARY,
+                                                             UNARY_OPS, OperationNameError,
+                                                             operation_numbers)
 from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.fmi.native.builders.build import COMPILE_FLAGS, find_compiler
 from descent_fmus.synthesis.fmi.native.builders.ccode import law_c, operations_c

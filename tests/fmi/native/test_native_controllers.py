@@ -20,7 +20,7 @@ import pytest
 from fmpy import read_model_description
 from fmpy.validation import validate_fmu
 
-from descent_fmus.models.controllers.network_operator import BINARY, UNARY
+from descent_fmus.models.controllers.operation_table import BINARY, UNARY
 from descent_fmus.models.controllers.program_table import program_values
 from descent_fmus.synthesis.fmi.slave import load_slave
 from descent_fmus.synthesis.fmi.native.builders.build import find_compiler

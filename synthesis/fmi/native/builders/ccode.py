@@ -1,6 +1,6 @@
 """The network operator's operation table rendered to C, and a law as a C straight-line program.
 
-The operations live in ONE table (:mod:`descent_fmus.models.controllers.network_operator`): each
+The operations live in ONE table (:mod:`descent_fmus.models.controllers.operation_table`): each
 is an expression of a small language (Python's expression syntax: operands, float literals,
 named constants, ``+ - * /``, comparisons, ``x if c else y``, a few math functions).  Python
 compiles the expressions into the functions it evaluates; :func:`render` turns the same syntax
@@ -18,9 +18,9 @@ from __future__ import annotations
 import ast
 import re
 
-from descent_fmus.models.controllers.network_operator import (BINARY_OPS, CONSTANTS, FUNCTIONS,
-                                                              HELPERS, UNARY_OPS, MatrixError,
-                                                              finite)
+from descent_fmus.models.controllers.law_interpreter import MatrixError
+from descent_fmus.models.controllers.operation_table import (BINARY_OPS, CONSTANTS, FUNCTIONS,
+                                                             HELPERS, UNARY_OPS, finite)
 
 __all__ = ["render", "operations_c", "law_c", "c_double", "c_identifier", "OperationError",
            "interpreter_operations_h"]
@@ -172,7 +172,7 @@ def interpreter_operations_h() -> str:
     cases = "".join(f"    case NO_ARC_CODE({r}, {c}): return no_finite(chi{c}(a, rho{r}(z)));\n"
                     for r in range(1, nu + 1) for c in range(1, nb + 1))
     return ("/* no_operations.h -- the network operator's operation table rendered to C (generated "
-            "by descent-fmus\n * from models/controllers/network_operator.py; regenerate rather "
+            "by descent-fmus\n * from models/controllers/operation_table.py; regenerate rather "
             "than edit). */\n#ifndef DESCENT_NO_OPERATIONS_H\n#define DESCENT_NO_OPERATIONS_H\n\n"
             "#include <math.h>\n\n"
             # static inline: a file that includes it for the helpers only is not warned of
@@ -213,7 +213,7 @@ def law_c(law, prefix: str = "law", header: str = "law.h", about=()) -> tuple[st
     ``<prefix>_eval(x, q, x_scale, x_offset, u_min, u_max, u)`` computes
     ``u[k] = clip(z[out_k], u_min[k], u_max[k])`` with source nodes ``x_scale[k] (x[k] -
     x_offset[k])`` and ``q``, every node value through the same guarded operations and the same
-    clamp as :func:`models.controllers.network_operator.evaluate`; ``<prefix>(x, u)`` does it
+    clamp as :func:`models.controllers.law_interpreter.evaluate`; ``<prefix>(x, u)`` does it
     with the law's own parameters (``<PREFIX>_Q`` ...).  Only nodes that reach an output are
     computed (the others cannot change it).  ``about``: lines of the files' opening comment
     (e.g. the readable formula).

@@ -2,7 +2,7 @@
  * (the Integer parameters psi[i,j] of a generic controller FMU) checked and compiled into an
  * arc program, then evaluated with the operations of no_operations.h (generated from the one
  * operation table), in the order and with the guards of
- * models/controllers/network_operator.py (compile_law, evaluate): bitwise the same values.
+ * models/controllers/law_interpreter.py (compile_law, evaluate): bitwise the same values.
  *
  * Sizes (model_config.h, generated from the Python controller's capacity): NO_L_MAX nodes,
  * NO_NU_MAX outputs.
