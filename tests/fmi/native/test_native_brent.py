@@ -2,7 +2,7 @@
 
 Oracles: scipy.optimize.brentq(f, a, b, xtol, rtol, maxiter, disp=False) -- its root, the
 number of calls of f, the errors it raises -- for br_brentq; the Python
-descent_fmus.models.controllers.reentry_npc.solve_control -- (u, miss(u), evaluations), the
+descent_fmus.models.controllers.reentry_prediction.solve_control -- (u, miss(u), evaluations), the
 errors it raises, the calls of miss made -- for br_solve_control.
 
 Both sides call the same Python function (C through a ctypes callback, reset between the two
@@ -24,7 +24,7 @@ from pathlib import Path
 import pytest
 from scipy.optimize import brentq
 
-from descent_fmus.models.controllers.reentry_npc import solve_control
+from descent_fmus.models.controllers.reentry_prediction import solve_control
 from descent_fmus.models.reentry import U_BOUNDS
 
 HEADER_DIR = (Path(__file__).resolve().parents[3] / "synthesis" / "fmi" / "native" / "c"

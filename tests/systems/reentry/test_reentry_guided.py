@@ -13,7 +13,7 @@ import math
 import pytest
 from scipy.integrate import solve_ivp
 
-from descent_fmus.models.controllers.reentry_npc import gate_weight, predict_range
+from descent_fmus.models.controllers.reentry_prediction import gate_weight, predict_range
 from descent_fmus.models.reentry import ReentryParams, deviations, initial_state, loads, rhs
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.slave import FMUError

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pytest
 
-from descent_fmus.models.controllers.reentry_npc import solve_control
+from descent_fmus.models.controllers.reentry_prediction import solve_control
 from descent_fmus.models.reentry import ReentryParams
 from descent_fmus.synthesis.systems.reentry.oracle import oracle_bound
 from descent_fmus.synthesis.systems.reentry.robust_study import fly_npc

@@ -12,8 +12,8 @@ from dataclasses import asdict
 
 import pytest
 
-from descent_fmus.models.controllers.reentry_npc import (GuidedNetworkOperatorController,
-                                                         predict_flight)
+from descent_fmus.models.controllers.reentry_npc import GuidedNetworkOperatorController
+from descent_fmus.models.controllers.reentry_prediction import predict_flight
 from descent_fmus.models.controllers.reentry_replan import (PLAN_KNOTS, plan_value,
                                                             plan_weights)
 from descent_fmus.models.reentry import T_PLUS, ReentryParams, altitude, initial_state

@@ -15,7 +15,7 @@ import pytest
 from fmpy import extract, instantiate_fmu, read_model_description, simulate_fmu
 from scipy.integrate import solve_ivp
 
-from descent_fmus.models.controllers.reentry_npc import predict_range
+from descent_fmus.models.controllers.reentry_prediction import predict_range
 from descent_fmus.models.reentry import T_PLUS, ReentryParams, initial_state
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.methods.law import NetworkOperator

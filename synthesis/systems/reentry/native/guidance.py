@@ -4,38 +4,40 @@ The native ``GuidedNetworkOperatorController`` (``c/guided_model.c``) and ``Reen
 (``c/npc_model.c``) run the guidance cycle of :mod:`models.controllers.reentry_npc` -- every
 cycle, the correction c (the guided law) or the constant control u (the NPC) whose predicted
 flight lands at Lf.  Their loops (the prediction's steps, Brent's root search, ``c/brent.h``)
-are written in C once; the arithmetic inside them is traced from the Python functions here,
-into the same C unit as the controller's estimator (:mod:`.sensing`).  Of the guided law
-(:func:`trace_guidance`):
+are written in C once; the arithmetic inside them is traced from the Python functions of
+:mod:`models.controllers.reentry_prediction` here, into the same C unit as the controller's
+estimator (:mod:`.sensing`).  Of the guided law (:func:`trace_guidance`):
 
-* ``<prefix>_geometry(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.
+* ``<prefix>_geometry(r, iv, in, out)`` -- :func:`~models.controllers.reentry_prediction.
   predicted_inputs` at the state ``in[0..3]`` on the line from ``h0_line`` (``in[4]``:
   log factor, ``in[5]``: dlam, ``in[6]``: h_now) -> y1, y2, y3, and
   :func:`models.reentry.altitude` of the state -> out[3];
 * ``<prefix>_corrected(r, iv, in, out)`` -- the controller's ``_corrected(u, c, x, kd, model)``
   (``in``: u, c, x1..x4, kd, the model's lam) -> the corrected, clipped control;
-* ``<prefix>_step(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.predict_step`
-  (``in``: x1..x4, u, kd, lam, dt) -> the state, the outcome (0 OK, 1 EVENT, 2 DIVERGED) and,
-  at the EVENT, the down-range :func:`models.reentry.downrange` (else 0);
-* ``<prefix>_load(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.predicted_load`
-  (``in``: x1..x4, u, kd, lam): the load the prediction samples and the re-planner's floor;
+* ``<prefix>_step(r, iv, in, out)`` -- :func:`~models.controllers.reentry_prediction.
+  predict_step` (``in``: x1..x4, u, kd, lam, dt) -> the state, the outcome (0 OK, 1 EVENT,
+  2 DIVERGED) and, at the EVENT, the down-range :func:`models.reentry.downrange` (else 0);
+* ``<prefix>_load(r, iv, in, out)`` -- :func:`~models.controllers.reentry_prediction.
+  predicted_load` (``in``: x1..x4, u, kd, lam): the load the prediction samples and the
+  re-planner's floor;
 * ``<prefix>_plan(r, iv, in, out)`` -- :func:`~models.controllers.reentry_replan.plan_value`
   (``in``: the K weights, the altitude): the re-planned correction.
 
 Of the NPC (:func:`trace_npc`):
 
 * ``<prefix>_altitude(r, iv, in, out)`` -- :func:`models.reentry.altitude` of ``in[0..3]``;
-* ``<prefix>_range(r, iv, in, out)`` -- :func:`~models.controllers.reentry_npc.predict_range`
-  with a constant control (``in``: x1..x4, u, kd, lam, dt): the predicted down-range at hf.
+* ``<prefix>_range(r, iv, in, out)`` -- :func:`~models.controllers.reentry_prediction.
+  predict_range` with a constant control (``in``: x1..x4, u, kd, lam, dt): the predicted
+  down-range at hf.
 
 :func:`guidance_constants` gives the C the nominal model's numbers it needs (lam, Lf, hf, the
 horizon, the range of a flight that does not reach hf).
 """
 from __future__ import annotations
 
-from descent_fmus.models.controllers.reentry_npc import (HORIZON, NOT_REACHED, predict_range,
-                                                         predict_step, predicted_inputs,
-                                                         predicted_load)
+from descent_fmus.models.controllers.reentry_prediction import (HORIZON, NOT_REACHED, predict_range,
+                                                                predict_step, predicted_inputs,
+                                                                predicted_load)
 from descent_fmus.models.controllers.reentry_replan import (FD_STEP, MISS_SCALE, PLAN_KNOTS,
                                                             plan_value)
 from descent_fmus.models.integrators import DIVERGED, EVENT, OK

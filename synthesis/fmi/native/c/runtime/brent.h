@@ -3,8 +3,8 @@
  *   br_brentq        -- scipy.optimize.brentq(f, a, b, xtol, rtol, maxiter, disp=False), the
  *                       algorithm of SciPy's C implementation of Brent's method behind the
  *                       checks of its Python function;
- *   br_solve_control -- models.controllers.reentry_npc.solve_control(miss, u0, tol, max_iter,
- *                       (lo, hi)): the guess and a bound bracket the root, brentq finds it.
+ *   br_solve_control -- models.controllers.reentry_prediction.solve_control(miss, u0, tol,
+ *                       max_iter, (lo, hi)): the guess and a bound bracket the root, brentq finds it.
  *
  * Same root, same number of calls of f, bit for bit: every comparison, every operation and its
  * order is SciPy's (and Python's: min/max keep their first argument unless the other compares
