@@ -1,5 +1,5 @@
 """S4 -- the geometry of the control-moment gyro cluster and the attitude kinematics, on plain
-floats (shared by the rigid model, :mod:`models.telescope`, and the flexible one).
+floats (shared by the rigid model, :mod:`models.telescope_dynamics`, and the flexible one).
 
 * the gimbal-axis clusters: the default six face normals of a regular dodecahedron
   (:data:`GIMBAL_AXES`), :func:`pyramid_axes` and :func:`octahedron_axes` (Voronov 2009,
@@ -9,8 +9,7 @@ floats (shared by the rigid model, :mod:`models.telescope`, and the flexible one
 * :func:`gyro_sums` -- the rotor momentum ``k`` and its rate ``k-dot`` of the gyrodynes;
 * :func:`quaternion_rate`, :func:`quat_to_matrix` -- the attitude kinematics.
 
-The equations of motion that use them are in :mod:`models.telescope`, which re-exports every
-public name of this module.
+The equations of motion that use them are in :mod:`models.telescope_dynamics`.
 
 References
 ----------

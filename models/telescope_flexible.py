@@ -1,9 +1,9 @@
 """S4 flexible variant -- the telescope carrying two solar panels, two modal coordinates each.
 
 State ``x = (lam[4], w[3], beta[n], eta[4], deta[4])`` (21 with six gyrodynes): the rigid state
-of ``models/telescope.py`` followed by the modal coordinates ``eta`` [sqrt(kg) m] (mass-normalised:
-panel 1 modes 1-2, panel 2 modes 1-2) and their rates.  Hybrid-coordinates model (Voronov 2009,
-Example 2, eq. (10)):
+of ``models/telescope_dynamics.py`` followed by the modal coordinates ``eta`` [sqrt(kg) m]
+(mass-normalised: panel 1 modes 1-2, panel 2 modes 1-2) and their rates.  Hybrid-coordinates
+model (Voronov 2009, Example 2, eq. (10)):
 
     I dw/dt + D^T d2eta/dt2 + w x (I w + k + D^T deta/dt) + dk/dt = 0
     d2eta/dt2 + D dw/dt + 2 zeta Omega deta/dt + Omega^2 eta = 0
@@ -38,8 +38,9 @@ import numpy as np
 from pythonfmu import Fmi2Causality
 
 from descent_fmus.models.params import ParameterError, Params, description_of, param
-from descent_fmus.models.telescope import (Telescope, TelescopeParams, gyro_momentum, gyro_sums,
-                                           quat_to_matrix, quaternion_rate)
+from descent_fmus.models.telescope import Telescope
+from descent_fmus.models.telescope_cmg import gyro_sums, quat_to_matrix, quaternion_rate
+from descent_fmus.models.telescope_dynamics import TelescopeParams, gyro_momentum
 from descent_fmus.models.traceable import minimum
 
 __all__ = ["PanelParams", "make_flexible_rhs", "flexible_inertial_momentum", "FlexibleTelescope",
@@ -53,8 +54,8 @@ N_MODES = 4
 class PanelParams(Params):
     """Solar-panel modes ([choice]; see the module docstring and models/README.md).
 
-    :meth:`validate` with the body's :class:`~models.telescope.TelescopeParams` also checks that
-    the panels do not outweigh the body (``I - D^T D`` positive definite).
+    :meth:`validate` with the body's :class:`~models.telescope_dynamics.TelescopeParams` also
+    checks that the panels do not outweigh the body (``I - D^T D`` positive definite).
     """
 
     coupling: tuple = param((40.0, 0.0, 0.0,

@@ -1,8 +1,10 @@
 """S4 orbital telescope with control-moment gyros: the reorientation and the route problem by the
 direct (Newton-Kantorovich) method, flown through the FMUs as programs.
 
-Files of this system: ``models/telescope.py`` (rigid equations, Jacobian, invariants, the
-``AttitudeIntegrator`` and the Telescope FMU), ``models/telescope_flexible.py`` (two flexible
+Files of this system: ``models/telescope_dynamics.py`` (rigid equations, Jacobian, invariants,
+the data of Example 1), ``models/telescope_cmg.py`` (the gyro cluster's geometry, the attitude
+kinematics), ``models/telescope.py`` (the ``AttitudeIntegrator`` and the Telescope FMU),
+``models/telescope_flexible.py`` (two flexible
 solar panels, the FlexibleTelescope FMU), ``models/rk4_input.py`` (RK4 with a first-order-hold
 control, shared with the method), this package (``wiring`` the closed loops and their stored
 programs ``programs.json``, ``reorientation`` the solves, replay and plot, ``route`` the route

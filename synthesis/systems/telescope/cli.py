@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from descent_fmus.models.telescope import T_DEFAULT, TARGET_W, TelescopeParams
+from descent_fmus.models.telescope_dynamics import T_DEFAULT, TARGET_W, TelescopeParams
 from descent_fmus.synthesis.cli.common import (CliError, add_common_options,
                                                add_parameter_options, emit, finite_float,
                                                fmu_folder, int_at_least, parameter_overrides,

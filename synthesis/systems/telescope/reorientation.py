@@ -27,11 +27,12 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.models.telescope import (DT_INTEGRATION, INITIAL_STATE, T_DEFAULT, TARGET_LAM,
-                                           TARGET_W, TelescopeParams, envelope_radius,
-                                           gyro_momentum, inertial_momentum, make_rigid_rhs,
-                                           required_gyro_momentum, rigid_jacobian,
-                                           singularity_measure)
+from descent_fmus.models.telescope import DT_INTEGRATION
+from descent_fmus.models.telescope_dynamics import (INITIAL_STATE, T_DEFAULT, TARGET_LAM, TARGET_W,
+                                                    TelescopeParams, envelope_radius, gyro_momentum,
+                                                    inertial_momentum, make_rigid_rhs,
+                                                    required_gyro_momentum, rigid_jacobian,
+                                                    singularity_measure)
 from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inertial_momentum,
                                                     flexible_initial_state, make_flexible_rhs)
 from descent_fmus.synthesis.methods.direct_method import (BoundaryProblem, DirectResult,
@@ -78,8 +79,8 @@ def check_reachable(x0, lam_f, w_f, p: TelescopeParams, margin: float = 1.0) -> 
 
     The inertial momentum K is conserved, so at T the gyros must hold
     ``k_f = R(lam_f)^T K - I w_f``; along its direction e the n gyros reach at most
-    ``h sum_j sqrt(1 - (e.g_j)^2)`` (:func:`models.telescope.envelope_radius`).  Checked before
-    iterating, so an impossible target is a message, not a diverging loop.
+    ``h sum_j sqrt(1 - (e.g_j)^2)`` (:func:`models.telescope_dynamics.envelope_radius`).
+    Checked before iterating, so an impossible target is a message, not a diverging loop.
     """
     nrm = float(np.linalg.norm(lam_f))
     if not math.isfinite(nrm) or abs(nrm - 1.0) > 1e-9:

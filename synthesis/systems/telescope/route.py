@@ -31,9 +31,11 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.models.telescope import (DT_INTEGRATION, TelescopeParams, inertial_momentum,
-                                           make_rigid_rhs, octahedron_axes, pyramid_axes,
-                                           quat_to_matrix, rigid_jacobian, singularity_measure)
+from descent_fmus.models.telescope import DT_INTEGRATION
+from descent_fmus.models.telescope_cmg import octahedron_axes, pyramid_axes, quat_to_matrix
+from descent_fmus.models.telescope_dynamics import (TelescopeParams, inertial_momentum,
+                                                    make_rigid_rhs, rigid_jacobian,
+                                                    singularity_measure)
 from descent_fmus.synthesis.methods.direct_method import DirectResult, solve
 from descent_fmus.synthesis.methods.route import trace_route
 from descent_fmus.synthesis.methods.route_problem import (RouteProblem, RouteResult, RouteTable,

@@ -17,7 +17,8 @@ import json
 from dataclasses import asdict
 from pathlib import Path
 
-from descent_fmus.models.telescope import INERTIA_NAMES, T_DEFAULT
+from descent_fmus.models.telescope import INERTIA_NAMES
+from descent_fmus.models.telescope_dynamics import T_DEFAULT
 from descent_fmus.synthesis.fmi.closed_loop import STATUS_STOP, Wiring
 
 __all__ = ["STEP", "PLANTS", "PROGRAMS_FILE", "wiring", "WIRING", "FLEXIBLE_WIRING",

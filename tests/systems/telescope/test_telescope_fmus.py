@@ -11,7 +11,7 @@ import pytest
 
 from descent_fmus.models.controllers.program_table import program_values
 from descent_fmus.models.integrators import LEFT_DOMAIN, RUNNING
-from descent_fmus.models.telescope import T_DEFAULT, TARGET_LAM, TARGET_W
+from descent_fmus.models.telescope_dynamics import T_DEFAULT, TARGET_LAM, TARGET_W
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.slave import FMUError
 from descent_fmus.synthesis.systems.telescope.reorientation import reorient, replay

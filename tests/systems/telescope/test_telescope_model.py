@@ -15,11 +15,13 @@ import pytest
 from descent_fmus.models.controllers.program_table import evaluate_program, program_values
 from descent_fmus.models.integrators import LEFT_DOMAIN, RUNNING
 from descent_fmus.models.params import ParameterError
-from descent_fmus.models.telescope import (INITIAL_STATE, T_DEFAULT, TARGET_LAM, TARGET_W,
-                                           AttitudeIntegrator, TelescopeParams, envelope_radius,
-                                           gimbal_vectors, gyro_momentum, make_rigid_rhs,
-                                           octahedron_axes, pyramid_axes, required_gyro_momentum,
-                                           rigid_jacobian, sing_max, singularity_measure)
+from descent_fmus.models.telescope import AttitudeIntegrator
+from descent_fmus.models.telescope_cmg import (gimbal_vectors, octahedron_axes, pyramid_axes,
+                                               sing_max)
+from descent_fmus.models.telescope_dynamics import (INITIAL_STATE, T_DEFAULT, TARGET_LAM, TARGET_W,
+                                                    TelescopeParams, envelope_radius, gyro_momentum,
+                                                    make_rigid_rhs, required_gyro_momentum,
+                                                    rigid_jacobian, singularity_measure)
 from descent_fmus.models.telescope_flexible import (PanelParams, flexible_initial_state,
                                                     make_flexible_rhs)
 

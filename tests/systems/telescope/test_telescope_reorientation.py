@@ -17,8 +17,9 @@ import pytest
 from scipy.integrate import solve_ivp
 
 from descent_fmus.models.params import ParameterError
-from descent_fmus.models.telescope import (INITIAL_STATE, TARGET_LAM, TARGET_W, TelescopeParams,
-                                           make_rigid_rhs, singularity_measure)
+from descent_fmus.models.telescope_dynamics import (INITIAL_STATE, TARGET_LAM, TARGET_W,
+                                                    TelescopeParams, make_rigid_rhs,
+                                                    singularity_measure)
 from descent_fmus.models.telescope_flexible import (PanelParams, flexible_inertial_momentum,
                                                     flexible_initial_state, make_flexible_rhs)
 from descent_fmus.synthesis.methods.direct_method import SaturatedError

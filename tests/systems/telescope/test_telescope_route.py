@@ -14,7 +14,7 @@ from scipy.integrate import solve_ivp
 
 from descent_fmus.models.controllers.program_table import program_values
 from descent_fmus.models.integrators import RUNNING
-from descent_fmus.models.telescope import inertial_momentum, make_rigid_rhs
+from descent_fmus.models.telescope_dynamics import inertial_momentum, make_rigid_rhs
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.methods.route_problem import RouteError, RouteNotTracedError
 from descent_fmus.synthesis.systems.telescope.reorientation import (RateLimitTooSmallError,
