@@ -299,17 +299,19 @@ def test_run_py_rejects_a_bad_split_with_exit_2(tmp_path):
 
 
 def test_nop_lchr0_is_a_variant_beside_the_network_operator_not_a_baseline():
-    import run
+    import suite_report
+    import suite_table
     rows = [{"method": "network-operator", "median": 0.1, "keeps_basic_form": False},
-            {"method": run.NOP_LCHR0, "median": 0.4, "keeps_basic_form": True},
+            {"method": suite_table.NOP_LCHR0, "median": 0.4, "keeps_basic_form": True},
             {"method": "cma-linear", "median": 0.5}]
-    v = run.verdict(rows, None, None)
+    v = suite_table.verdict(rows, None, None)
     # the best baseline is the linear law's 0.5, not the variant's 0.4
     assert v["best_baseline"] == "cma-linear" and v["no_over_best_baseline"] == pytest.approx(0.2)
     assert v["new_form"] is True and v["lchr0_median"] == 0.4
     assert v["no_over_lchr0"] == pytest.approx(0.25)
-    assert run.VARIANTS[run.NOP_LCHR0] == ("network-operator", {"lchr": 0})
-    assert run.figure_path(Path("d/suite.png"), "held_out") == Path("d/suite-held-out.png")
+    assert suite_table.VARIANTS[suite_table.NOP_LCHR0] == ("network-operator", {"lchr": 0})
+    assert suite_report.figure_path(Path("d/suite.png"), "held_out") == \
+        Path("d/suite-held-out.png")
 
 
 def test_run_py_set_names_recipe_settings_and_rejects_others_with_exit_2(tmp_path):

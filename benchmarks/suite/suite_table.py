@@ -1,0 +1,179 @@
+"""The benchmark suite's tables: per problem and method the median best value, its ratio to the
+reference and the network operator's verdict against the best baseline.
+
+The runs of ``benchmarks/suite/run.py`` are read back from their folders (:func:`run_dir`, one
+per problem, method and seed): per method the median over the seeds of the best value of the
+problem's target objective (the last point of ``summary["curve"]``, :func:`best_of`), its ratio
+to the reference (``suite.reference``), whether the network operator is at least as good as the
+best baseline on the median (:func:`verdict`), the form of its best law (new, or the basic
+law's) and what that form bought (its median against ``nop-lchr0``'s, :func:`form_bought`).
+``suite_report.py`` prints and plots the tables.
+"""
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from pathlib import Path
+
+import suite
+
+__all__ = ["NETWORK_OPERATOR", "NOP_LCHR0", "VARIANTS", "CLEARLY", "methods_of", "is_baseline",
+           "run_dir", "best_of", "tabulate", "verdict", "form_bought", "jsonable"]
+
+NETWORK_OPERATOR = "network-operator"
+#: the network operator's recipe with lchr = 0 (no structure variations: the basic law's
+#: parameters only), beside it in every table: what the form alone bought
+NOP_LCHR0 = "nop-lchr0"
+#: method variants of the suite: (the method run, the recipe settings changed)
+VARIANTS = {NOP_LCHR0: (NETWORK_OPERATOR, {"lchr": 0})}
+
+
+def methods_of(problem) -> list:
+    """The network operator first, then every registered method of the problem (the
+    ``cma-<structure>`` baselines and the GP baseline ``gp``), all at the same flight budget."""
+    from descent_fmus.synthesis.methods.registry import method_names
+    names = method_names(problem)
+    return [NETWORK_OPERATOR, *VARIANTS] + [m for m in names if m != NETWORK_OPERATOR]
+
+
+def is_baseline(method: str) -> bool:
+    """A method the network operator is compared with (not it, nor a variant of it)."""
+    return method != NETWORK_OPERATOR and method not in VARIANTS
+
+
+def run_dir(out: Path, name: str, method: str, seed: int) -> Path:
+    return Path(out) / name / f"{method}-s{seed}"
+
+
+
+# -- tabulating --------------------------------------------------------------------------------
+def best_of(summary: dict) -> float:
+    """The best value of the target objective over the run (its learning curve's last point;
+    NaN if no law met the problem's constraints)."""
+    c = summary.get("curve") or []
+    return float(c[-1][1]) if c else math.nan
+
+
+def _median(values) -> float:
+    """The median, a run without a feasible law (NaN) counting as the worst (inf)."""
+    return statistics.median([v if v == v else math.inf for v in values]) if values \
+        else math.nan
+
+
+def tabulate(names, seeds, out: Path, fmus=None) -> dict:
+    """Every problem's rows (one per method), its reference and the verdicts."""
+    table = {}
+    for name in names:
+        spec = suite.SPECS[name]
+        problem = suite.load(name, fmus)
+        ref = suite.reference(name, problem, fmus)
+        rows = []
+        for method in methods_of(problem):
+            runs = {}
+            for seed in seeds:
+                d = run_dir(out, name, method, seed)
+                f = d / "summary.json"
+                if f.is_file():
+                    runs[seed] = json.loads(f.read_text())
+            if not runs:
+                continue
+            vals = [best_of(runs[s]) if s in runs else math.nan for s in seeds]
+            med = _median(vals)
+            row = {"method": method, "values": vals, "median": med,
+                   "ratio": suite.ratio(med, ref["value"]) if spec.ratio else None,
+                   "flights": [runs[s].get("flights") if s in runs else None for s in seeds],
+                   "seconds": [round(runs[s].get("seconds", 0.0)) if s in runs else None
+                               for s in seeds],
+                   "curves": {s: runs[s].get("curve", []) for s in runs}}
+            # the run whose value is the median (the law shown for the method)
+            ok = [s for s in seeds if s in runs]
+            mid = min(ok, key=lambda s: abs(best_of(runs[s]) - med)
+                      if best_of(runs[s]) == best_of(runs[s]) and med < math.inf else math.inf)
+            st = runs[mid].get("structure", {})
+            row.update(median_seed=mid, keeps_basic_form=st.get("best_law_keeps_basic_form"),
+                       law=st.get("best_law"), details="")
+            pj = run_dir(out, name, method, mid) / "pareto.json"
+            if pj.is_file():
+                law = suite.best_law(problem, json.loads(pj.read_text()))
+                if law is not None:
+                    row["details"] = suite.law_details(name, problem, law, fmus)
+            rows.append(row)
+        ref_details = ""
+        if name in suite.PARKING:
+            d = ref["details"]
+            ref_details = (f"parks every start: mean final distance {d['mean_distance']:.2g} m, "
+                           f"heading error {d['mean_heading']:.2g} rad")
+        elif name == "cartpole":
+            from descent_fmus.synthesis.methods.law import NetworkOperator  # noqa: F401
+            ref_details = ("the basic law (LQR of the linearisation): "
+                           + suite.law_details(name, problem, problem.basic(), fmus))
+        table[name] = {"reference": ref["value"], "reference_label": ref["label"],
+                       "reference_note": ref_details, "plot": spec.plot,
+                       "goal": spec.goal, "goal_ratio": spec.goal_ratio, "rows": rows,
+                       "verdict": verdict(rows, ref["value"], spec.goal_ratio,
+                                          spec.goal_value)}
+        table[name]["reference_details"] = jsonable(ref["details"])
+    return table
+
+
+#: "clearly better": the network operator's median at most this fraction of the best baseline's
+CLEARLY = 0.9
+
+
+def verdict(rows, ref, goal_ratio, goal_value=None) -> dict:
+    """Against the best baseline on the median: ``at_least_as_good``, ``clearly_better``
+    (median <= 0.9 x the best baseline's), the ratio of the two, and the goal met (median
+    <= goal_ratio x the reference, or <= goal_value)."""
+    no = next((r for r in rows if r["method"] == NETWORK_OPERATOR), None)
+    base = [r for r in rows if is_baseline(r["method"])]
+    out = {}
+    if no is not None:
+        out.update(form_bought(no, next((r for r in rows if r["method"] == NOP_LCHR0), None)))
+        n = no["median"]
+        if goal_ratio is not None and ref:
+            out["goal_met"] = bool(n == n and n / ref <= goal_ratio)
+        elif goal_value is not None:
+            out["goal_met"] = bool(n == n and n <= goal_value)
+    if no is None or not base:
+        return out
+    best = min(base, key=lambda r: r["median"] if r["median"] == r["median"] else math.inf)
+    b, n = best["median"], no["median"]
+    out["best_baseline"] = best["method"]
+    if n == n and b == b:
+        out["no_over_best_baseline"] = n / b if b > 0 else (1.0 if n == b else math.inf)
+        out["at_least_as_good"] = n <= b * (1 + 1e-9) or n <= b + 1e-12
+        out["clearly_better"] = n <= CLEARLY * b
+    elif n == n:                           # no baseline met the constraints
+        out.update(at_least_as_good=True, clearly_better=True, no_over_best_baseline=0.0)
+    else:
+        out.update(at_least_as_good=False, clearly_better=False)
+    return out
+
+
+def form_bought(no: dict, lchr0: dict | None) -> dict:
+    """Whether the network operator's best law (of its median seed) has a new form, and its
+    median over the same recipe's without structure variations (:data:`NOP_LCHR0`)."""
+    keeps = no.get("keeps_basic_form")
+    out = {"new_form": None if keeps is None else not keeps}
+    if lchr0 is not None:
+        n, z = no["median"], lchr0["median"]
+        out["lchr0_median"] = z
+        if n == n and z == z and z != math.inf:
+            out["no_over_lchr0"] = n / z if z > 0 else (1.0 if n == z else math.inf)
+    return out
+
+
+def jsonable(x):
+    import numpy as np
+    if isinstance(x, dict):
+        return {str(k): jsonable(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [jsonable(v) for v in x]
+    if isinstance(x, np.ndarray):
+        return jsonable(x.tolist())
+    if isinstance(x, complex):
+        return [x.real, x.imag]
+    if isinstance(x, (np.floating, np.integer)):
+        return x.item()
+    return x
