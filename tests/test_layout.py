@@ -318,10 +318,15 @@ def test_the_core_knows_no_system():
     assert core_imports_of_systems() == []
 
 
+#: Folders whose modules pass the module gates (a docstring naming the job, at most 500 lines):
+#: the package and the benchmark scripts.  The function gate (80 lines) covers the package.
+MODULE_GATE = ("models", "synthesis", "benchmarks")
+
+
 def test_every_module_names_its_job():
     # every module starts with a docstring whose first line says what the module is for
     bad = []
-    for folder in ("models", "synthesis"):
+    for folder in MODULE_GATE:
         for path in (ROOT / folder).rglob("*.py"):
             doc = ast.get_docstring(ast.parse(path.read_text()))
             if not doc or len(doc.splitlines()[0].split()) < 3:
@@ -336,12 +341,14 @@ LONG_FUNCTIONS: dict = {}
 
 def test_no_module_over_500_lines_and_no_function_over_80():
     long_modules, long_functions = [], []
-    for folder in ("models", "synthesis"):
+    for folder in MODULE_GATE:
         for path in (ROOT / folder).rglob("*.py"):
             text = path.read_text()
             n = len(text.splitlines())
             if n > 500:
                 long_modules.append(f"{path.relative_to(ROOT)}: {n} lines")
+            if folder == "benchmarks":
+                continue
             for node in ast.walk(ast.parse(text)):
                 if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)):
                     size = node.end_lineno - node.lineno + 1

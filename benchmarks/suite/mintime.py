@@ -15,7 +15,7 @@ synthesis (docs/benchmarks/suite.md).
 
 The same LP with the box shrunk to the origin and a fine step is the tests' independent check of
 the closed form (:func:`min_time_lp`).  The exact zero-order-hold discretisation of both plants
-is :func:`references.van_loan` (a matrix exponential), not the plants' own step formulas.
+is :func:`riccati.van_loan` (a matrix exponential), not the plants' own step formulas.
 """
 from __future__ import annotations
 
@@ -23,7 +23,8 @@ import importlib.util
 
 import numpy as np
 
-from references import SUITE, van_loan
+from plant_flights import SUITE
+from riccati import van_loan
 
 __all__ = ["time_to_go", "plant_matrices", "discretise", "reach_program", "box_reachable",
            "least_steps",

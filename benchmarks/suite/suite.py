@@ -17,8 +17,10 @@ from pathlib import Path
 from typing import Callable
 
 from descent_fmus.synthesis.systems.lunar_descent.problems import LUNAR_DESCENT_RECIPE
-from references import (AICARDI_GAINS, AICARDI_GAINS_BOX, BUILD, LUNAR_DESCENT_CMA_J1, SUITE,
-                        PlantFlyer, build_plants, lq_reference, parking_reference, stored)
+from plant_flights import BUILD, SUITE, PlantFlyer, build_plants
+from references import (AICARDI_GAINS, AICARDI_GAINS_BOX, LUNAR_DESCENT_CMA_J1, parking_reference,
+                        stored)
+from riccati import lq_reference
 
 __all__ = ["Spec", "SPECS", "load", "reference", "ORDER", "PARKING", "MINTIME"]
 
@@ -38,7 +40,7 @@ class Spec:
     flights : int
         Flight budget of every method (laws flown, each from all the problem's starts).
     plants : tuple of str
-        Plant FMUs it needs built (:data:`references.PLANT_SOURCES`).
+        Plant FMUs it needs built (:data:`plant_flights.PLANT_SOURCES`).
     file : str or None
         Its problem file (None: a registered problem).
     goal : str
@@ -168,7 +170,7 @@ def law_details(name: str, problem, law, fmu_dir=None) -> str:
     """What a law does start by start, in words: the cart-pole starts it saves (the pole stays
     within the never-fall bound), the parking starts it parks (:data:`PARKED`); "" else."""
     if name == "cartpole":
-        from references import fly_law
+        from plant_flights import fly_law
         bound = problem.constraints[0].bound
         finals = fly_law(problem, law, fmu_dir)
         saved = [s for s, f in zip(problem.initial_states, finals) if f["tilt_max"] <= bound]
@@ -176,7 +178,7 @@ def law_details(name: str, problem, law, fmu_dir=None) -> str:
                 + ("" if len(saved) == len(finals) else ": theta0 = " + ", ".join(
                     f"{math.degrees(s['theta0']):+.0f}" for s in saved) + " deg"))
     if name in PARKING:
-        from references import fly_law
+        from plant_flights import fly_law
         finals = fly_law(problem, law, fmu_dir)
         n = sum(f["rho"] < PARKED[0] and abs(f["theta"]) < PARKED[1] for f in finals)
         d = sum(f["rho"] for f in finals) / len(finals)
@@ -184,7 +186,7 @@ def law_details(name: str, problem, law, fmu_dir=None) -> str:
         return (f"parks {n}/{len(finals)} starts (within 5 cm, 3 deg); mean final distance "
                 f"{d:.3g} m, heading error {a:.3g} rad")
     if name in MINTIME:
-        from references import fly_law
+        from plant_flights import fly_law
         stop = problem.wiring.stop
         finals = fly_law(problem, law, fmu_dir)
         n = sum(stop.holds(f[stop.output]) for f in finals)

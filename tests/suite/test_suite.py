@@ -23,7 +23,10 @@ import pytest
 SUITE = Path(__file__).resolve().parents[2] / "benchmarks" / "suite"
 sys.path.insert(0, str(SUITE))
 
+import cartpole_reference as CP  # noqa: E402
+import plant_flights as F  # noqa: E402
 import references as R  # noqa: E402
+import riccati as RIC  # noqa: E402
 import suite  # noqa: E402
 
 
@@ -31,7 +34,7 @@ import suite  # noqa: E402
 def built():
     """The suite's plant FMUs, built by pythonfmu into benchmarks/suite/build/ (as the runner
     does; ~0.1 s each when missing)."""
-    return R.build_plants()
+    return F.build_plants()
 
 
 def load(name, fmu_dir):
@@ -51,7 +54,7 @@ def test_every_problem_of_the_suite_loads(built, fmu_dir, name):
 # -- lq --------------------------------------------------------------------------------------
 def lq_setup(fmu_dir):
     p = load("lq", fmu_dir)
-    with R.PlantFlyer(R.BUILD / "LQPlant.fmu") as fl:
+    with F.PlantFlyer(F.BUILD / "LQPlant.fmu") as fl:
         params = fl.defaults()
     return p, params
 
@@ -61,7 +64,7 @@ def test_van_loan_matches_a_quadrature_of_one_step():
     A = np.array([[0.0, 1.0], [1.0, -0.5]])
     B = np.array([[0.0], [1.0]])
     Q, Rm, h = np.diag([1.0, 0.1]), np.array([[0.1]]), 0.1
-    Ad, Bd, Qd, Nd, Rd = R.van_loan(A, B, Q, Rm, h)
+    Ad, Bd, Qd, Nd, Rd = RIC.van_loan(A, B, Q, Rm, h)
     rng = np.random.default_rng(0)
     for _ in range(3):
         x0, u = rng.normal(size=2), rng.normal()
@@ -78,8 +81,8 @@ def test_van_loan_matches_a_quadrature_of_one_step():
 def test_lq_riccati_solution_is_the_optimum(built, fmu_dir):
     from scipy.linalg import solve_continuous_are
     p, params = lq_setup(fmu_dir)
-    A, B, Q, Rm = R.lq_matrices(params)
-    d = R.sampled_lqr(A, B, Q, Rm, p.wiring.step)
+    A, B, Q, Rm = RIC.lq_matrices(params)
+    d = RIC.sampled_lqr(A, B, Q, Rm, p.wiring.step)
     Ad, Bd, Qd, Nd, Rd, P, K = (d[k] for k in ("Ad", "Bd", "Qd", "Nd", "Rd", "P", "K"))
     # the discrete Riccati equation with the cross term holds
     G = Rd + Bd.T @ P @ Bd
@@ -95,25 +98,25 @@ def test_lq_riccati_solution_is_the_optimum(built, fmu_dir):
     assert J == pytest.approx(x @ P @ x, rel=1e-10)
     # any other gain costs more; the continuous LQR is close, not equal (the hold costs)
     for dK in ([0.05, 0.0], [0.0, -0.05], [-0.2, 0.1]):
-        assert (x @ R.law_cost_matrix(d, K + np.array([dK])) @ x) > x @ P @ x
+        assert (x @ RIC.law_cost_matrix(d, K + np.array([dK])) @ x) > x @ P @ x
     Pc = solve_continuous_are(A, B, Q, Rm)
     assert np.allclose(P, Pc, rtol=0.05) and not np.allclose(P, Pc, rtol=1e-4)
 
 
 def test_lq_reference_flown_through_the_fmus(built, fmu_dir):
     p, params = lq_setup(fmu_dir)
-    ref = R.lq_reference(p, params)
+    ref = RIC.lq_reference(p, params)
     # the horizon is the infinite-horizon cost: the finite-horizon optimum agrees to 1e-9
     assert ref["finite_horizon_mean"] == pytest.approx(ref["mean"], rel=1e-9)
     assert ref["finite_horizon_mean"] <= ref["mean"] * (1 + 1e-12)
     # the optimal gain, a law of the generic controller FMU, through the closed loop
     K = ref["K"]
     law = p.basic().with_q([-K[0], -K[1], 0.0])
-    (cost,), cv = R.objective_of(p, law, fmu_dir)
+    (cost,), cv = F.objective_of(p, law, fmu_dir)
     assert cost == pytest.approx(ref["mean"], rel=1e-7)
     # the basic law is half of it, and costs what its Lyapunov equation says
     assert p.basic().q[:2] == pytest.approx([-K[0] / 2, -K[1] / 2], rel=1e-6)
-    (basic,), _ = R.objective_of(p, p.basic(), fmu_dir)
+    (basic,), _ = F.objective_of(p, p.basic(), fmu_dir)
     assert basic == pytest.approx(ref["basic_law_mean"], rel=1e-6)
     assert basic / ref["mean"] > 1.3
     # the bounds never bind: the optimal law's largest |u| over the starts
@@ -125,13 +128,13 @@ def test_lq_reference_flown_through_the_fmus(built, fmu_dir):
 def test_cartpole_basic_law_is_the_lqr_law_and_saves_half_the_starts(built, fmu_dir):
     p = load("cartpole", fmu_dir)
     stored = R.stored("cartpole")
-    with R.PlantFlyer(R.BUILD / "CartPole.fmu") as fl:
+    with F.PlantFlyer(F.BUILD / "CartPole.fmu") as fl:
         params = fl.defaults()
-    K = R.cartpole_lqr(params, p.wiring.step)["K"]
+    K = CP.cartpole_lqr(params, p.wiring.step)["K"]
     assert K == pytest.approx(stored["lqr"]["K"], rel=1e-9)
     gains = np.array(p.basic().q[:4]) * np.array(p.basic().input_scale)
     assert gains == pytest.approx(-np.array(K), rel=1e-6)
-    finals = R.fly_law(p, p.basic(), fmu_dir)
+    finals = F.fly_law(p, p.basic(), fmu_dir)
     bound = p.constraints[0].bound
     for s, f in zip(p.initial_states, finals):
         saved = f["tilt_max"] <= bound
@@ -141,7 +144,7 @@ def test_cartpole_basic_law_is_the_lqr_law_and_saves_half_the_starts(built, fmu_
 def test_cartpole_programs_replay_through_the_fmu(built):
     stored = R.stored("cartpole")
     h, T = stored["step"], stored["stop_time"]
-    with R.PlantFlyer(R.BUILD / "CartPole.fmu") as fl:
+    with F.PlantFlyer(F.BUILD / "CartPole.fmu") as fl:
         for prog in stored["programs"]:
             u = np.asarray(prog["u"])[:, None]
             out = fl.fly(prog["start"], u, ["F"], h, T)
@@ -159,7 +162,7 @@ def test_polar_law_parks_every_start(built, fmu_dir):
         assert row["distance"] < 1e-6 and row["heading"] < 1e-6, row
     # the basic (linear, Cartesian) law parks only the two starts already on the x axis with
     # heading 0 (straight ahead, straight back)
-    finals = R.fly_law(p, p.basic(), fmu_dir)
+    finals = F.fly_law(p, p.basic(), fmu_dir)
     parked = [s for s, f in zip(p.initial_states, finals) if f["rho"] + abs(f["theta"]) < 1e-2]
     assert parked == [s for s in p.initial_states if s["y0"] == 0.0 and s["theta0"] == 0.0]
 

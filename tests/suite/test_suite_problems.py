@@ -32,6 +32,7 @@ SUITE = Path(__file__).resolve().parents[2] / "benchmarks" / "suite"
 sys.path.insert(0, str(SUITE))
 
 import mintime as M  # noqa: E402
+import plant_flights as F  # noqa: E402
 import references as R  # noqa: E402
 import split as S  # noqa: E402
 import suite  # noqa: E402
@@ -41,7 +42,7 @@ import suite  # noqa: E402
 def built():
     """The plants these tests fly, built by build-plant into benchmarks/suite/build/ (each
     with its native twin, which the problems fly)."""
-    return R.build_plants(names=("DoubleIntegrator", "Oscillator", "Unicycle"))
+    return F.build_plants(names=("DoubleIntegrator", "Oscillator", "Unicycle"))
 
 
 def load(name, fmu_dir):
@@ -101,7 +102,7 @@ def test_di_bang_bang_program_through_the_fmu_ends_at_the_origin(built, x0):
     T = M.time_to_go(x1, x2)
     first = -1.0 if x1 + 0.5 * x2 * abs(x2) > 0 else 1.0
     t1 = (T - first * x2) / 2
-    with R.PlantFlyer(built["DoubleIntegrator"]) as fl:
+    with F.PlantFlyer(built["DoubleIntegrator"]) as fl:
         start = {"x10": x1, "x20": x2}
         mid = _fly_segments(fl, start, [(first, t1)])
         # on the curve (tgo has a square root of the distance to it: rounding 1e-16 -> 2e-8)
@@ -128,7 +129,7 @@ def test_di_problem_value_of_the_basic_law(built, fmu_dir):
     p = load("mintime-di", fmu_dir)
     ref = M.mintime_di_reference(p)
     assert len(p.initial_states) == 10 and ref["tau"] == 0.1
-    (time, excess), cv = R.objective_of(p, p.basic(), fmu_dir)
+    (time, excess), cv = F.objective_of(p, p.basic(), fmu_dir)
     # oracle: the same law flown on the exact zero-order-hold matrices (a matrix exponential)
     gains = p.basic().q[:2]
     vals = [_di_value(lambda x: gains[0] * x[0] + gains[1] * x[1], (s["x10"], s["x20"]),
@@ -146,7 +147,7 @@ def test_di_reference_is_fair_to_a_sampled_law(built, fmu_dir):
     ref = M.mintime_di_reference(p)
     h, tau = p.wiring.step, ref["tau"]
     vals = []
-    with R.PlantFlyer(built["DoubleIntegrator"]) as fl:
+    with F.PlantFlyer(built["DoubleIntegrator"]) as fl:
         for s in p.initial_states:
             tr = fl.fly(s, M.switching_law_di(h), ["u"], h, p.wiring.stop_time, [(-1, 1)],
                          record=True)["trace"]
@@ -185,7 +186,7 @@ def test_separating_axis_test_agrees_with_the_lp():
 def test_oscillator_problem_value_of_the_basic_law(built, fmu_dir):
     p = load("mintime-osc", fmu_dir)
     ref = M.mintime_osc_reference(p)
-    (time, worst), cv = R.objective_of(p, p.basic(), fmu_dir)
+    (time, worst), cv = F.objective_of(p, p.basic(), fmu_dir)
     # oracle: the law u = -x2 flown on the exact zero-order-hold matrices, the flight ending at
     # the first sample in the box
     Ad, Bd = M.discretise("oscillator", p.wiring.step)
@@ -212,7 +213,7 @@ def test_oscillator_reference_programs_replay_through_the_fmu(built, fmu_dir):
     h, eps = ref["step"], ref["eps"]
     assert len(ref["per_start"]) == 10 and ref["mean"] == pytest.approx(
         np.mean([r["steps"] for r in ref["per_start"]]) * h, rel=1e-12)
-    with R.PlantFlyer(built["Oscillator"]) as fl:
+    with F.PlantFlyer(built["Oscillator"]) as fl:
         for row in ref["per_start"]:
             u = np.asarray(row["u"])[:, None]
             start = {"x10": row["start"][0], "x20": row["start"][1]}
@@ -237,7 +238,7 @@ def test_oscillator_reference_is_attained_by_a_feedback_law(built, fmu_dir):
         return (M.reach_program(Ad, Bd, x, n, eps * (1 - 1e-6))[0],)
 
     rows = sorted(ref["per_start"], key=lambda r: r["time"])[1:3]
-    with R.PlantFlyer(built["Oscillator"]) as fl:
+    with F.PlantFlyer(built["Oscillator"]) as fl:
         for row in rows:
             start = {"x10": row["start"][0], "x20": row["start"][1]}
             r = fl.fly(start, law, ["u"], h, row["time"], record=True)["trace"]["r"]
