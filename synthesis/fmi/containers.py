@@ -8,6 +8,7 @@
 """
 from __future__ import annotations
 
+import functools
 import json
 import shutil
 import tempfile
@@ -182,8 +183,92 @@ def _create_container(config, parts: _Components, name: str, dest: Path) -> Path
         out = Path(tmp) / f"{name}.fmu"
         create_container_fmu(config, work, out)
         add_units(out)      # the variables' descriptions carry the components' units
+        into_engine(out)    # the closed-loop engine as its binary, where it can be built
         shutil.move(str(out), dest)
     return dest
+
+
+@functools.cache
+def _engine_library() -> bytes | None:
+    """The closed-loop engine (``synthesis/fmi/native/c/loop/closed_loop.c``) compiled for this
+    machine (once per process), or None where it cannot be (no C compiler, not linux64)."""
+    from descent_fmus.synthesis.fmi.native.builders.build import (C_ROOT, NativeBuildError,
+                                                                  cached_library, find_compiler,
+                                                                  platform_folder)
+    if platform_folder() != ("linux64", ".so") or find_compiler() is None:
+        return None
+    headers = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+    try:
+        return cached_library("closed-loop", [C_ROOT / "loop" / "closed_loop.c"], headers,
+                              libraries=("m", "dl")).read_bytes()
+    except NativeBuildError:
+        return None
+
+
+#: fmpy's container type names -> the engine's (resources/loop.txt)
+_TYPES = {"Float64": "R", "Real": "R", "Int32": "I", "Integer": "I", "Boolean": "B"}
+
+
+def _engine_config(config: dict, root: ET.Element) -> str:
+    """The engine's ``resources/loop.txt`` of fmpy's container configuration ``config``
+    (``resources/container.json``) and model description ``root`` (value references: the
+    container's variables in order, 0 the time)."""
+    lines = [f"name {root.get('modelName')}", f"period {float(config['fixedStepSize'])!r}"]
+    for comp in config["components"]:
+        lines.append(f"component {comp['name']} {comp['path']} {comp['modelIdentifier']} "
+                     f"{comp['instantiationToken']}")
+    svs = [sv for sv in root.iter("ScalarVariable") if sv.get("causality") != "independent"]
+    if len(svs) != len(config["variables"]):
+        raise ValueError("the container's variables do not match its model description")
+    for sv, var in zip(svs, config["variables"]):
+        (comp, cvr), = var["mappings"]
+        kind = "p" if sv.get("causality") == "parameter" else "o"
+        start = (var.get("start") or [None])[0]
+        start = "" if start is None else f" {str(start).lower()}"
+        lines.append(f"var {sv.get('valueReference')} {_TYPES[var['variableType']]} {comp} "
+                     f"{cvr} {kind}{start}")
+        if sv.get("name") == "sample_period":
+            lines.append(f"periodvar {sv.get('valueReference')}")
+    for c in config["connections"]:
+        for a, b in zip(c["srcValueReferences"], c["dstValueReferences"]):
+            lines.append(f"conn {_TYPES[c['variableType']]} {c['srcComponent']} {a} "
+                         f"{c['dstComponent']} {b}")
+    return "\n".join(lines) + "\n"
+
+
+def into_engine(fmu: Path) -> Path:
+    """Make an fmpy container FMU a closed-loop FMU of the package's engine (in place).
+
+    Its binary becomes ``closed_loop.c`` compiled here (model identifier ``closed_loop``), which
+    loads the two component FMUs fmpy extracted into ``resources/`` and accepts any
+    communication step: the controller samples at the loop's period (``sample_period``) with a
+    zero-order hold in between, the plant steps to the next sample or the end of the host's
+    step.  Variables, start values and units stay as fmpy wrote them.  Without a C compiler
+    (or off linux64) the FMU stays fmpy's container.
+    """
+    lib = _engine_library()
+    if lib is None:
+        return fmu
+    fmu = Path(fmu)
+    with zipfile.ZipFile(fmu) as z:
+        config = json.loads(z.read("resources/container.json"))
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    text = _engine_config(config, root).encode()
+    cs = root.find("CoSimulation")
+    cs.attrib.clear()
+    cs.attrib.update({"modelIdentifier": "closed_loop", "canHandleVariableCommunicationStepSize":
+                      "true", "canInterpolateInputs": "false", "canBeInstantiatedOnlyOncePerProcess":
+                      "false"})
+    root.set("generationTool", "descent-fmus (closed-loop engine)")
+    xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+    def edit(item, data):
+        if item.filename.startswith("binaries/") or item.filename in (
+                "resources/container.json", "Container.zip"):
+            return []
+        return [(item, xml if item.filename == "modelDescription.xml" else data)]
+    return rewrite_archive(fmu, fmu, edit, extra=[
+        ("binaries/linux64/closed_loop.so", lib), ("resources/loop.txt", text)])
 
 
 def refine_container(src_fmu: Path, dst_fmu: Path, step: float) -> Path:
