@@ -119,14 +119,14 @@ static void loop_error(Loop *L, const char *fmt, ...)
 }
 
 /* The components' logger: every message they send, prefixed with the component's role and
- * model identifier ("plant (Reentry): ..."; a prefix "<instance>: " of their own is dropped). */
+ * model identifier ("plant (Reentry): ..."; a prefix "<instance>: " or "<identifier>: " of
+ * their own is dropped). */
 static void part_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
                         fmi2String category, fmi2String message, ...)
 {
     Loop *L = (Loop *)env;
     char text[900], msg[1024];
     const char *body = text, *ident = "?";
-    size_t n = instance ? strlen(instance) : 0;
     va_list ap;
     va_start(ap, message);
     vsnprintf(text, sizeof text, message ? message : "", ap);
@@ -134,8 +134,12 @@ static void part_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2S
     for (int i = 0; i < 2; i++)
         if (instance && strcmp(instance, L->part[i].role) == 0)
             ident = L->part[i].ident;
-    if (n > 0 && strncmp(text, instance, n) == 0 && text[n] == ':' && text[n + 1] == ' ')
-        body = text + n + 2;
+    for (int i = 0; i < 2; i++) {
+        const char *prefix = i == 0 ? (instance ? instance : "") : ident;
+        size_t n = strlen(prefix);
+        if (n > 0 && strncmp(body, prefix, n) == 0 && body[n] == ':' && body[n + 1] == ' ')
+            body += n + 2;
+    }
     snprintf(msg, sizeof msg, "%s (%s): %s", instance ? instance : "?", ident, body);
     host_log(L, status, category ? category : "logAll", msg);
 }
