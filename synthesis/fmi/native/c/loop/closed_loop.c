@@ -19,8 +19,9 @@
  * controller is stepped over its whole period [s_k, s_{k+1}] when the plant reaches s_{k+1}.
  * A piece that is the host's whole step gets the host's (t, h) unchanged, a whole period
  * min(T, end - s_k) as the master does, so at h = T the components see exactly the calls of
- * the master and of fmpy's container FMU: the same numbers bit for bit.  T = 0 samples at
- * every communication point of the host.
+ * the master and of fmpy's container FMU: the same numbers bit for bit.  sample_period = 0
+ * (the controller's "at every communication point") samples at the loop's own step, the
+ * communication step of fmpy's container.
  *
  * Errors and warnings of the components are passed on to the host's logger whatever loggingOn
  * says (the components filter their own debug messages), prefixed with the component's role;
@@ -450,8 +451,8 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp)
     if (L == NULL)
         return fmi2Error;
     if (!(L->T >= 0.0 && L->T < INFINITY)) {
-        loop_error(L, "sample_period must be finite and >= 0 (0: sample at every "
-                      "communication point), got %g s", L->T);
+        loop_error(L, "sample_period must be finite and >= 0 (0: at the loop's step), got %g s",
+                   L->T);
         L->mode = M_ERROR;
         return fmi2Error;
     }
@@ -584,9 +585,10 @@ static double tolerance(double T, double t)
  * step is done, 0 when another piece follows, -1 on an error. */
 static int piece(Loop *L, double t, double h, fmi2Status *status)
 {
+    const double T = L->T > 0.0 ? L->T : L->period_default;
     const double target = t + h, start = L->t;
-    const double next = L->T > 0.0 ? L->t0 + (double)(L->k + 1) * L->T : target;
-    const double tol = tolerance(L->T, next);
+    const double next = T > 0.0 ? L->t0 + (double)(L->k + 1) * T : target;
+    const double tol = tolerance(T, next);
     double end, dt;
     int sample;
     if (next < target - tol)
@@ -594,8 +596,8 @@ static int piece(Loop *L, double t, double h, fmi2Status *status)
     else
         end = target, sample = fabs(next - target) <= tol
                                || (L->stop_defined && fabs(L->stop - target) <= tol);
-    dt = start == t && end == target ? h : start == L->s && L->T > 0.0 ? fmin(L->T, end - start)
-                                                                       : end - start;
+    dt = start == t && end == target ? h : start == L->s && T > 0.0 ? fmin(T, end - start)
+                                                                   : end - start;
     if ((*status = L->part[0].step(L->part[0].c, start, dt, fmi2True)) > fmi2Warning) {
         loop_error(L, "plant fmi2DoStep at t = %.17g s (step %.17g s) failed", start, dt);
         return -1;
@@ -631,7 +633,7 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real t, fmi2Real h, fmi2Boolean no
         loop_error(L, "the communication step must be finite and > 0, got %g s", h);
         return fmi2Error;
     }
-    if (fabs(t - L->t) > tolerance(L->T, t)) {
+    if (fabs(t - L->t) > tolerance(L->T > 0.0 ? L->T : L->period_default, t)) {
         loop_error(L, "fmi2DoStep from t = %.17g s, but the closed loop is at t = %.17g s", t,
                    L->t);
         return fmi2Error;
