@@ -17,9 +17,10 @@
  * (u_k = phi(y(s_k))), and u_k is held until the next sample (zero-order hold); the plant is
  * stepped to the next sample instant or the end of the host's step, whichever comes first; the
  * controller is stepped over its whole period [s_k, s_{k+1}] when the plant reaches s_{k+1}.
- * A piece that is the host's whole step gets the host's (t, h) unchanged, a whole period
- * min(T, end - s_k) as the master does, so at h = T the components see exactly the calls of
- * the master and of fmpy's container FMU: the same numbers bit for bit.  sample_period = 0
+ * A whole period [s_k, s_{k+1}] is stepped with T itself, as the masters step it; another
+ * piece that is the host's whole step with the host's (t, h), else with what is left.  So at
+ * h = T the components see exactly the calls of the master and of fmpy's container FMU: the
+ * same numbers bit for bit.  sample_period = 0
  * (the controller's "at every communication point") samples at the loop's own step, the
  * communication step of fmpy's container.
  *
@@ -596,15 +597,17 @@ static int piece(Loop *L, double t, double h, fmi2Status *status)
     else
         end = target, sample = fabs(next - target) <= tol
                                || (L->stop_defined && fabs(L->stop - target) <= tol);
-    dt = start == t && end == target ? h : start == L->s && T > 0.0 ? fmin(T, end - start)
-                                                                   : end - start;
+    /* a whole period: T, as the masters step (fmpy simulate's h = (n + 1) dt - n dt is not
+       exactly T); else the host's own step, or what is left of it */
+    dt = start == L->s && T > 0.0 && fabs(next - end) <= tol ? T
+         : start == t && end == target ? h : end - start;
     if ((*status = L->part[0].step(L->part[0].c, start, dt, fmi2True)) > fmi2Warning) {
         loop_error(L, "plant fmi2DoStep at t = %.17g s (step %.17g s) failed", start, dt);
         return -1;
     }
     L->t = end;
     if (sample) {
-        const double dc = start == L->s ? dt : end - L->s;
+        const double dc = start == L->s ? dt : fabs(end - L->s - T) <= tol ? T : end - L->s;
         if ((*status = L->part[1].step(L->part[1].c, L->s, dc, fmi2True)) > fmi2Warning) {
             loop_error(L, "controller fmi2DoStep at t = %.17g s (step %.17g s) failed", L->s,
                        dc);
