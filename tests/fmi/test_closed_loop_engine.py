@@ -128,7 +128,7 @@ def test_debug_messages_stay_off_unless_asked(fmu_dir, tmp_path):
 INTERVALS = (0.1, 0.25, 1.0)
 
 
-@pytest.mark.slow        # every closed loop, pythonfmu and native, at four intervals (~2 min)
+@pytest.mark.slow        # every closed loop, pythonfmu and native, at four intervals (~50 s)
 @pytest.mark.parametrize("kind", KINDS)
 def test_every_closed_loop_at_every_interval(fmu_dir, kind, tmp_path):
     # every registered closed loop: fmpy simulate at 0.1, 0.25 and 1 s and at the law's step
