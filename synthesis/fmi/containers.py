@@ -195,17 +195,18 @@ def _create_container(config, parts: _Components, name: str, dest: Path,
 
 @functools.cache
 def _engine_library() -> bytes | None:
-    """The closed-loop engine (``synthesis/fmi/native/c/loop/closed_loop.c``) compiled for this
+    """The closed-loop engine (``synthesis/fmi/native/c/loop/``) compiled for this
     machine (once per process), or None where it cannot be (no C compiler, not linux64)."""
     from descent_fmus.synthesis.fmi.native.builders.build import (C_ROOT, NativeBuildError,
                                                                   cached_library, find_compiler,
                                                                   platform_folder)
     if platform_folder() != ("linux64", ".so") or find_compiler() is None:
         return None
-    headers = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h")
+    loop = C_ROOT / "loop"
+    headers = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h", loop / "loop.h")
     try:
-        return cached_library("closed-loop", [C_ROOT / "loop" / "closed_loop.c"], headers,
-                              libraries=("m", "dl")).read_bytes()
+        return cached_library("closed-loop", [loop / "closed_loop.c", loop / "loop_values.c"],
+                              headers, libraries=("m", "dl")).read_bytes()
     except NativeBuildError:
         return None
 
