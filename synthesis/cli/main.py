@@ -40,8 +40,6 @@ def build_parser() -> argparse.ArgumentParser:
     add_synthesize_command(sub)
     from descent_fmus.synthesis.cli.export_law import add_export_law_command
     add_export_law_command(sub)
-    from descent_fmus.synthesis.cli.fine_output import add_fine_output_command
-    add_fine_output_command(sub)
     from descent_fmus.synthesis.cli.build_plant import add_build_plant_command
     add_build_plant_command(sub)
     p = sub.add_parser("problems", help="list the registered synthesis problems and systems")

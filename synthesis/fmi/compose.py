@@ -155,7 +155,9 @@ def add_status_wrapper(fmu: Path) -> Path:
     fmi2Fatal; FMI 2.0 calls it fmi2Error.  The linux64 binary becomes the status wrapper
     (``synthesis/fmi/native/c/fmi2/pythonfmu_status.c``), which forwards every call to the pythonfmu
     binary, renamed ``<identifier>.pythonfmu.so`` beside it, and reports fmi2Fatal of the
-    set-up calls as fmi2Error.  Without a C compiler the FMU is left as pythonfmu built it.
+    set-up calls as fmi2Error; it also passes the FMU's errors and warnings to the host's logger
+    whatever ``loggingOn`` says (debug messages only when asked).  Without a C compiler the FMU
+    is left as pythonfmu built it.
     """
     lib = _status_library()
     if lib is None:

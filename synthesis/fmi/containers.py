@@ -1,13 +1,15 @@
-"""Closed loops as one FMU: fmpy container FMUs of a plant and a controller, and SSP files.
+"""Closed loops as one FMU: a plant and a controller in one closed-loop FMU, and SSP files.
 
-* :func:`closed_loop_fmu` -- plant + controller composed by fmpy's container-FMU support into one
-  FMU that ``fmpy simulate`` runs directly;
-* :func:`refine_container` -- a copy of a closed-loop FMU on a finer communication grid;
+* :func:`closed_loop_fmu` -- plant + controller composed into one FMU that ``fmpy simulate``
+  runs directly at any output interval: fmpy's container-FMU support writes the archive (the
+  variables, the components extracted in ``resources/``), :func:`into_engine` gives it the
+  package's closed-loop engine (``synthesis/fmi/native/c/loop/closed_loop.c``) as its binary;
 * :func:`write_ssp` -- an SSP 1.0 archive (SystemStructure.ssd + the two FMUs) of the same system,
   for tools that read SSP; it is checked against the SSP schema by ``fmpy.ssp.ssd.read_ssd``.
 """
 from __future__ import annotations
 
+import functools
 import json
 import shutil
 import tempfile
@@ -23,12 +25,12 @@ from descent_fmus.synthesis.fmi.closed_loop import Wiring
 from descent_fmus.synthesis.fmi.compose import add_units, rewrite_archive
 from descent_fmus.synthesis.paths import require_fmu
 
-__all__ = ["closed_loop_fmu", "refine_container", "write_ssp"]
+__all__ = ["closed_loop_fmu", "into_engine", "write_ssp"]
 
 
 def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path,
-                    parameters: tuple = (), starts: bool = True) -> Path:
-    """Compose plant and controller into one container FMU with fmpy (``fmpy.container_fmu``).
+                    parameters: tuple = (), starts: bool = True, engine: bool = True) -> Path:
+    """Compose plant and controller into one closed-loop FMU (see the module docstring).
 
     Parameters
     ----------
@@ -44,6 +46,9 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
         False: the exposed parameters carry no start value -- a container for evaluation only
         (``synthesis.fmi.container_loop``), whose reset then leaves them at the components' own defaults
         instead of setting each one again (fmpy's container sets every start value on reset).
+    engine : bool
+        False: keep fmpy's container binary (fixed step: output intervals must be multiples
+        of the wiring's step) -- the former closed-loop FMU, kept as a reference for tests.
     """
     from fmpy.container_fmu.config import Configuration
 
@@ -52,8 +57,7 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
     parameters = tuple(parameters)
     if (wiring.to_controller and "sample_period" in parts.cvars["controller"]
             and "sample_period" not in {c for c, _, _ in parameters}):
-        # a feedback controller samples at the wiring's step whatever the container's step
-        # (refine_container: finer output with the controller at its own period)
+        # the controller's sample period is a parameter of the closed loop (the engine's T)
         parameters += (("sample_period", "controller", "sample_period"),)
     variables, mappings, outputs = _container_variables(wiring, parts, parameters, starts)
     connections = _connections(wiring, parts)
@@ -62,7 +66,7 @@ def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest:
                            components=[parts.comps["plant"], parts.comps["controller"]],
                            connections=connections, variableMappings=mappings)
     dest.parent.mkdir(parents=True, exist_ok=True)
-    return _create_container(config, parts, wiring.name, dest)
+    return _create_container(config, parts, wiring.name, dest, engine)
 
 
 class _Components:
@@ -164,7 +168,8 @@ def _container_description(wiring: Wiring, parts: _Components, variables: list,
         initialUnknowns=[Unknown(variable=u.variable) for u in outputs])
 
 
-def _create_container(config, parts: _Components, name: str, dest: Path) -> Path:
+def _create_container(config, parts: _Components, name: str, dest: Path,
+                      engine: bool = True) -> Path:
     """Write the container FMU of ``config`` to ``dest`` with fmpy, the components' units in
     its variables' descriptions."""
     from fmpy.container_fmu.cli import create_container_fmu
@@ -182,40 +187,94 @@ def _create_container(config, parts: _Components, name: str, dest: Path) -> Path
         out = Path(tmp) / f"{name}.fmu"
         create_container_fmu(config, work, out)
         add_units(out)      # the variables' descriptions carry the components' units
+        if engine:          # the closed-loop engine as its binary, where it can be built
+            into_engine(out)
         shutil.move(str(out), dest)
     return dest
 
 
-def refine_container(src_fmu: Path, dst_fmu: Path, step: float) -> Path:
-    """Copy a closed-loop container FMU with a finer internal step ``step`` [s].
+@functools.cache
+def _engine_library() -> bytes | None:
+    """The closed-loop engine (``synthesis/fmi/native/c/loop/``) compiled for this
+    machine (once per process), or None where it cannot be (no C compiler, not linux64)."""
+    from descent_fmus.synthesis.fmi.native.builders.build import (C_ROOT, NativeBuildError,
+                                                                  cached_library, find_compiler,
+                                                                  platform_folder)
+    if platform_folder() != ("linux64", ".so") or find_compiler() is None:
+        return None
+    loop = C_ROOT / "loop"
+    headers = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h", loop / "loop.h")
+    try:
+        return cached_library("closed-loop", [loop / "closed_loop.c", loop / "loop_values.c"],
+                              headers, libraries=("m", "dl")).read_bytes()
+    except NativeBuildError:
+        return None
 
-    fmpy's container steps every component with one fixed step and accepts communication steps
-    (``fmpy simulate --output-interval``) that are multiples of it.  The copy runs the plant on
-    ``step``; the controller keeps sampling at its own period (the container's parameter
-    ``sample_period``, by default the closed loop's step), so the output is finer and the
-    control the same.  The plant's integration sub-steps become at most ``step``: results at
-    the sample instants move by the plant's integration error only.
+
+#: fmpy's container type names -> the engine's (resources/loop.txt)
+_TYPES = {"Float64": "R", "Real": "R", "Int32": "I", "Integer": "I", "Boolean": "B"}
+
+
+def _engine_config(config: dict, root: ET.Element) -> str:
+    """The engine's ``resources/loop.txt`` of fmpy's container configuration ``config``
+    (``resources/container.json``) and model description ``root`` (value references: the
+    container's variables in order, 0 the time)."""
+    lines = [f"name {root.get('modelName')}", f"period {float(config['fixedStepSize'])!r}"]
+    for comp in config["components"]:
+        lines.append(f"component {comp['name']} {comp['path']} {comp['modelIdentifier']} "
+                     f"{comp['instantiationToken']}")
+    svs = [sv for sv in root.iter("ScalarVariable") if sv.get("causality") != "independent"]
+    if len(svs) != len(config["variables"]):
+        raise ValueError("the container's variables do not match its model description")
+    for sv, var in zip(svs, config["variables"]):
+        (comp, cvr), = var["mappings"]
+        kind = "p" if sv.get("causality") == "parameter" else "o"
+        start = (var.get("start") or [None])[0]
+        start = "" if start is None else f" {str(start).lower()}"
+        lines.append(f"var {sv.get('valueReference')} {_TYPES[var['variableType']]} {comp} "
+                     f"{cvr} {kind}{start}")
+        if sv.get("name") == "sample_period":
+            lines.append(f"periodvar {sv.get('valueReference')}")
+    for c in config["connections"]:
+        for a, b in zip(c["srcValueReferences"], c["dstValueReferences"]):
+            lines.append(f"conn {_TYPES[c['variableType']]} {c['srcComponent']} {a} "
+                         f"{c['dstComponent']} {b}")
+    return "\n".join(lines) + "\n"
+
+
+def into_engine(fmu: Path) -> Path:
+    """Make an fmpy container FMU a closed-loop FMU of the package's engine (in place).
+
+    Its binary becomes ``closed_loop.c`` compiled here (model identifier ``closed_loop``), which
+    loads the two component FMUs fmpy extracted into ``resources/`` and accepts any
+    communication step: the controller samples at the loop's period (``sample_period``) with a
+    zero-order hold in between, the plant steps to the next sample or the end of the host's
+    step.  Variables, start values and units stay as fmpy wrote them.  Without a C compiler
+    (or off linux64) the FMU stays fmpy's container.
     """
-    src_fmu, dst_fmu = require_fmu(src_fmu), Path(dst_fmu)
-    step = float(step)
-    if not (step > 0.0 and step < float("inf")):
-        raise ValueError(f"the internal step must be finite and > 0, got {step!r}")
-    md = read_model_description(str(src_fmu))
-    if md.coSimulation is None or md.coSimulation.modelIdentifier != "container_fmu":
-        raise ValueError(f"{src_fmu} is not a closed-loop container FMU (fmpy container)")
-    names = {v.name for v in md.modelVariables}
-    with zipfile.ZipFile(src_fmu) as z:
+    lib = _engine_library()
+    if lib is None:
+        return fmu
+    fmu = Path(fmu)
+    with zipfile.ZipFile(fmu) as z:
         config = json.loads(z.read("resources/container.json"))
-    feedback = len({c["srcComponent"] for c in config["connections"]}) > 1
-    if feedback and "sample_period" not in names:
-        raise ValueError(f"{src_fmu.name} has no parameter sample_period: its controller "
-                         f"would act at every internal step; rebuild it (python "
-                         f"build_fmus.py) and refine the new one")
-    config["fixedStepSize"] = step
-    text = json.dumps(config, indent=4).encode()
-    dst_fmu.parent.mkdir(parents=True, exist_ok=True)
-    return rewrite_archive(src_fmu, dst_fmu, lambda item, data: [
-        (item, text if item.filename == "resources/container.json" else data)])
+        root = ET.fromstring(z.read("modelDescription.xml"))
+    text = _engine_config(config, root).encode()
+    cs = root.find("CoSimulation")
+    cs.attrib.clear()
+    cs.attrib.update({"modelIdentifier": "closed_loop", "canHandleVariableCommunicationStepSize":
+                      "true", "canInterpolateInputs": "false", "canBeInstantiatedOnlyOncePerProcess":
+                      "false"})
+    root.set("generationTool", "descent-fmus (closed-loop engine)")
+    xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+
+    def edit(item, data):
+        if item.filename.startswith("binaries/") or item.filename in (
+                "resources/container.json", "Container.zip"):
+            return []
+        return [(item, xml if item.filename == "modelDescription.xml" else data)]
+    return rewrite_archive(fmu, fmu, edit, extra=[
+        ("binaries/linux64/closed_loop.so", lib), ("resources/loop.txt", text)])
 
 
 _SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"

@@ -2,11 +2,11 @@
 
 For every registered closed loop (``synthesis.registry.ClosedLoopSpec``) whose plant and
 controller both have native twins in ``fmus/native/``, :func:`build_native_closed_loops` writes
-``fmus/native/<Name>ClosedLoop.fmu`` -- fmpy's container FMU of the two native FMUs, the same
+``fmus/native/<Name>ClosedLoop.fmu`` -- the closed-loop FMU of the two native FMUs
+(``synthesis.fmi.containers.closed_loop_fmu``: the package's closed-loop engine), the same
 connections, exposed variables and parameters as the pythonfmu closed loop -- and its
 ``.ssp`` beside it.  No Python runs in them: any FMI 2.0 host (``fmpy simulate``, a C host)
-runs them, at any output interval that is a multiple of the loop's step, or finer through
-``descent-fmus fine-output`` (the controller keeps its sample period).
+runs them, at any output interval (the controller samples at its own period).
 
 A loop whose controller carries other start values (``controller_defaults``: a stored program,
 a law) gets its own native controller, ``<Name>ClosedLoopController.fmu``: the twin rebuilt with

@@ -7,11 +7,18 @@
    FMI 2.0 co-simulation function to it unchanged, except that fmi2Fatal from the set-up calls
    (fmi2SetupExperiment, fmi2EnterInitializationMode, fmi2ExitInitializationMode) becomes
    fmi2Error.  The FMUs of this project keep their instances safe to reset and free after such
-   an error (their Python side balances pythonfmu's reference counts).  The message the FMU
-   logged is unchanged. */
+   an error (their Python side balances pythonfmu's reference counts).
+
+   pythonfmu passes the FMU's messages to the host only when loggingOn is true, so a rejected
+   parameter went unseen by a plain `fmpy simulate`.  This library instantiates the pythonfmu
+   FMU with loggingOn = true and passes on to the host every message of status fmi2Warning or
+   above, and the others only when the host asked for logging (loggingOn or
+   fmi2SetDebugLogging), as Reference-FMUs do.  The messages themselves are unchanged. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <stdarg.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "fmi2Functions.h"
@@ -45,6 +52,35 @@ static void *resolve(const char *name)
     return lib != NULL ? dlsym(lib, name) : NULL;
 }
 
+/* One instance: the pythonfmu instance and the host's logger with its logging flag. */
+typedef struct {
+    fmi2Component inner;
+    fmi2CallbackFunctions host, own;
+    int logging;
+} Wrapped;
+
+#define INNER(c) ((c) != NULL ? ((Wrapped *)(c))->inner : NULL)
+
+/* The logger pythonfmu calls: the message formatted, passed on if the host is to see it (as
+   the format itself, with no conversion left: hosts that ignore the variadic arguments, fmpy,
+   show it as it is). */
+static void filter_logger(fmi2ComponentEnvironment env, fmi2String instance, fmi2Status status,
+                          fmi2String category, fmi2String message, ...)
+{
+    Wrapped *w = (Wrapped *)env;
+    char text[2048];
+    va_list ap;
+    if (w == NULL || w->host.logger == NULL || (status < fmi2Warning && !w->logging))
+        return;
+    va_start(ap, message);
+    vsnprintf(text, sizeof text, message != NULL ? message : "", ap);
+    va_end(ap);
+    for (char *p = text; *p; p++)
+        if (*p == '%')
+            *p = '?';
+    w->host.logger(w->host.componentEnvironment, instance, status, category, text);
+}
+
 /* The function `name` of the pythonfmu binary, looked up once. */
 #define REAL(name) \
     static name##TYPE *p_##name = NULL; \
@@ -55,7 +91,7 @@ static void *resolve(const char *name)
     fmi2Status name params \
     { \
         REAL(name); \
-        return p_##name != NULL ? p_##name args : fmi2Fatal; \
+        return p_##name != NULL && c != NULL ? p_##name args : fmi2Fatal; \
     }
 
 /* set-up calls: a rejected value is fmi2Error, not fmi2Fatal */
@@ -64,7 +100,7 @@ static void *resolve(const char *name)
     { \
         fmi2Status s; \
         REAL(name); \
-        if (p_##name == NULL) \
+        if (p_##name == NULL || c == NULL) \
             return fmi2Fatal; \
         s = p_##name args; \
         return s == fmi2Fatal ? fmi2Error : s; \
@@ -85,95 +121,116 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               const fmi2CallbackFunctions *functions, fmi2Boolean visible,
                               fmi2Boolean loggingOn)
 {
+    Wrapped *w;
     REAL(fmi2Instantiate);
-    if (p_fmi2Instantiate == NULL)
+    if (p_fmi2Instantiate == NULL || (w = calloc(1, sizeof *w)) == NULL)
         return NULL;
-    return p_fmi2Instantiate(instanceName, fmuType, guid, resourceLocation, functions, visible,
-                             loggingOn);
+    if (functions != NULL)
+        w->host = w->own = *functions;
+    w->own.logger = filter_logger;
+    w->own.componentEnvironment = w;
+    w->logging = loggingOn;
+    w->inner = p_fmi2Instantiate(instanceName, fmuType, guid, resourceLocation, &w->own,
+                                 visible, fmi2True);
+    if (w->inner == NULL) {
+        free(w);
+        return NULL;
+    }
+    return w;
 }
 
 void fmi2FreeInstance(fmi2Component c)
 {
     REAL(fmi2FreeInstance);
-    if (p_fmi2FreeInstance != NULL)
-        p_fmi2FreeInstance(c);
+    if (p_fmi2FreeInstance != NULL && c != NULL)
+        p_fmi2FreeInstance(INNER(c));
+    free(c);
 }
 
-FORWARD_STATUS(fmi2SetDebugLogging,
-               (fmi2Component c, fmi2Boolean on, size_t n, const fmi2String categories[]),
-               (c, on, n, categories))
+/* the host's flag decides what passes the filter; pythonfmu itself keeps logging everything */
+fmi2Status fmi2SetDebugLogging(fmi2Component c, fmi2Boolean on, size_t n,
+                               const fmi2String categories[])
+{
+    (void)n;
+    (void)categories;
+    if (c == NULL)
+        return fmi2Error;
+    ((Wrapped *)c)->logging = on;
+    return fmi2OK;
+}
 SETUP_STATUS(fmi2SetupExperiment,
              (fmi2Component c, fmi2Boolean toleranceDefined, fmi2Real tolerance,
               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime),
-             (c, toleranceDefined, tolerance, startTime, stopTimeDefined, stopTime))
-SETUP_STATUS(fmi2EnterInitializationMode, (fmi2Component c), (c))
-SETUP_STATUS(fmi2ExitInitializationMode, (fmi2Component c), (c))
-FORWARD_STATUS(fmi2Terminate, (fmi2Component c), (c))
-FORWARD_STATUS(fmi2Reset, (fmi2Component c), (c))
+             (INNER(c), toleranceDefined, tolerance, startTime, stopTimeDefined, stopTime))
+SETUP_STATUS(fmi2EnterInitializationMode, (fmi2Component c), (INNER(c)))
+SETUP_STATUS(fmi2ExitInitializationMode, (fmi2Component c), (INNER(c)))
+FORWARD_STATUS(fmi2Terminate, (fmi2Component c), (INNER(c)))
+FORWARD_STATUS(fmi2Reset, (fmi2Component c), (INNER(c)))
 
 FORWARD_STATUS(fmi2GetReal,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Real v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 FORWARD_STATUS(fmi2GetInteger,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Integer v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 FORWARD_STATUS(fmi2GetBoolean,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2Boolean v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 FORWARD_STATUS(fmi2GetString,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n, fmi2String v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 FORWARD_STATUS(fmi2SetReal,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n, const fmi2Real v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 FORWARD_STATUS(fmi2SetInteger,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n,
                 const fmi2Integer v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 FORWARD_STATUS(fmi2SetBoolean,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n,
                 const fmi2Boolean v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 FORWARD_STATUS(fmi2SetString,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n,
                 const fmi2String v[]),
-               (c, vr, n, v))
+               (INNER(c), vr, n, v))
 
-FORWARD_STATUS(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
-FORWARD_STATUS(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (c, s))
-FORWARD_STATUS(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (c, s))
+FORWARD_STATUS(fmi2GetFMUstate, (fmi2Component c, fmi2FMUstate *s), (INNER(c), s))
+FORWARD_STATUS(fmi2SetFMUstate, (fmi2Component c, fmi2FMUstate s), (INNER(c), s))
+FORWARD_STATUS(fmi2FreeFMUstate, (fmi2Component c, fmi2FMUstate *s), (INNER(c), s))
 FORWARD_STATUS(fmi2SerializedFMUstateSize, (fmi2Component c, fmi2FMUstate s, size_t *n),
-               (c, s, n))
+               (INNER(c), s, n))
 FORWARD_STATUS(fmi2SerializeFMUstate,
-               (fmi2Component c, fmi2FMUstate s, fmi2Byte bytes[], size_t n), (c, s, bytes, n))
+               (fmi2Component c, fmi2FMUstate s, fmi2Byte bytes[], size_t n),
+               (INNER(c), s, bytes, n))
 FORWARD_STATUS(fmi2DeSerializeFMUstate,
                (fmi2Component c, const fmi2Byte bytes[], size_t n, fmi2FMUstate *s),
-               (c, bytes, n, s))
+               (INNER(c), bytes, n, s))
 FORWARD_STATUS(fmi2GetDirectionalDerivative,
                (fmi2Component c, const fmi2ValueReference vUnknown[], size_t nUnknown,
                 const fmi2ValueReference vKnown[], size_t nKnown, const fmi2Real dvKnown[],
                 fmi2Real dvUnknown[]),
-               (c, vUnknown, nUnknown, vKnown, nKnown, dvKnown, dvUnknown))
+               (INNER(c), vUnknown, nUnknown, vKnown, nKnown, dvKnown, dvUnknown))
 
 FORWARD_STATUS(fmi2SetRealInputDerivatives,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n,
                 const fmi2Integer order[], const fmi2Real value[]),
-               (c, vr, n, order, value))
+               (INNER(c), vr, n, order, value))
 FORWARD_STATUS(fmi2GetRealOutputDerivatives,
                (fmi2Component c, const fmi2ValueReference vr[], size_t n,
                 const fmi2Integer order[], fmi2Real value[]),
-               (c, vr, n, order, value))
+               (INNER(c), vr, n, order, value))
 FORWARD_STATUS(fmi2DoStep,
                (fmi2Component c, fmi2Real t, fmi2Real h, fmi2Boolean noSetPrior),
-               (c, t, h, noSetPrior))
-FORWARD_STATUS(fmi2CancelStep, (fmi2Component c), (c))
+               (INNER(c), t, h, noSetPrior))
+FORWARD_STATUS(fmi2CancelStep, (fmi2Component c), (INNER(c)))
 FORWARD_STATUS(fmi2GetStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Status *v),
-               (c, s, v))
+               (INNER(c), s, v))
 FORWARD_STATUS(fmi2GetRealStatus, (fmi2Component c, const fmi2StatusKind s, fmi2Real *v),
-               (c, s, v))
+               (INNER(c), s, v))
 FORWARD_STATUS(fmi2GetIntegerStatus,
-               (fmi2Component c, const fmi2StatusKind s, fmi2Integer *v), (c, s, v))
+               (fmi2Component c, const fmi2StatusKind s, fmi2Integer *v), (INNER(c), s, v))
 FORWARD_STATUS(fmi2GetBooleanStatus,
-               (fmi2Component c, const fmi2StatusKind s, fmi2Boolean *v), (c, s, v))
+               (fmi2Component c, const fmi2StatusKind s, fmi2Boolean *v), (INNER(c), s, v))
 FORWARD_STATUS(fmi2GetStringStatus, (fmi2Component c, const fmi2StatusKind s, fmi2String *v),
-               (c, s, v))
+               (INNER(c), s, v))
