@@ -26,7 +26,8 @@ from descent_fmus.synthesis.cli.main import main
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.description.fmi3 import model_description
 from descent_fmus.synthesis.fmi.native.builders.build import (FMI3_GENERATION_TOOL,
-                                                              find_compiler, fmi3_rows)
+                                                              find_compiler, fmi3_rows,
+                                                              platform_folder, platform_tuple)
 from descent_fmus.synthesis.fmi.native.builders.fmi3 import (NotNativeError, build_fmi3_variants,
                                                               fmi3_variant, is_native,
                                                               variables_of)
@@ -160,6 +161,23 @@ def test_fmpy_simulate_cli(pairs, tmp_path):
     res = _fmpy_cli("simulate", fmu3, "--start-values", "m", "-5")
     assert res.returncode != 0
     assert "[ERROR] Reentry: parameter m must be > 0, got -5.0" in res.stdout
+
+
+def test_fmpy_compile_rebuilds_a_variant(pairs, tmp_path):
+    # another tool's build of the shipped sources (fmpy compile: CMake and the FMI 3.0
+    # sources/buildDescription.xml) flies as the FMI 2.0 FMU, bitwise
+    fmu2, fmu3 = pairs["Reentry"]
+    rebuilt = tmp_path / "Reentry.fmu"
+    rebuilt.write_bytes(fmu3.read_bytes())
+    binary = f"binaries/{platform_tuple()}/Reentry{platform_folder()[1]}"
+    with zipfile.ZipFile(rebuilt) as z:
+        before = z.read(binary)
+    res = _fmpy_cli("compile", rebuilt)
+    assert res.returncode == 0, res.stderr[-2000:]
+    with zipfile.ZipFile(rebuilt) as z:
+        assert z.read(binary) != before               # CMake's build, not ours
+    kwargs = dict(stop_time=30.0, output_interval=0.5)
+    assert _simulate(rebuilt, **kwargs) == _simulate(fmu2, **kwargs)
 
 
 class _Host:
