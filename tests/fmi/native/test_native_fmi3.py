@@ -292,3 +292,21 @@ def test_export_law_fmi3(fmu_dir, tmp_path, capsys):
     err = capsys.readouterr().err.strip()
     assert "--fmi3 needs the native law FMU" in err and len(err.splitlines()) == 1
     assert not bad.exists()
+
+
+def test_fmi3_variant_command(hopper_dir, tmp_path, capsys):
+    # a user's plant (the tutorial's hopper, build-plant's native twin) as FMI 3.0: it flies as
+    # its FMI 2.0 twin, bitwise; bad input is one line, exit 2, nothing written
+    out = tmp_path / "Hopper3.fmu"
+    assert main(["fmi3-variant", str(hopper_dir / "native" / "Hopper.fmu"), "--out", str(out),
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["out"] == str(out)
+    kwargs = dict(stop_time=5.0, output_interval=0.1)
+    assert _simulate(out, **kwargs) == _simulate(hopper_dir / "native" / "Hopper.fmu", **kwargs)
+    for argv in ([str(hopper_dir / "Hopper.fmu"), "--out", str(tmp_path / "a.fmu")],
+                 [str(tmp_path / "none.fmu"), "--out", str(tmp_path / "b.fmu")],
+                 [str(hopper_dir / "native" / "Hopper.fmu"), "--out", str(out)]):
+        assert main(["fmi3-variant", *argv]) == 2
+        err = capsys.readouterr().err.strip()
+        assert len(err.splitlines()) == 1 and err, argv
+    assert not (tmp_path / "a.fmu").exists() and not (tmp_path / "b.fmu").exists()
