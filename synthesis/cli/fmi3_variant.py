@@ -1,8 +1,9 @@
 """``descent-fmus fmi3-variant NATIVE.fmu --out FILE.fmu``: the FMI 3.0 variant of a native FMU.
 
 Any native FMI 2.0 FMU of the package -- a plant or controller of ``fmus/native/``, an exported
-law, the native twin ``descent-fmus build-plant`` wrote of a user's plant -- compiled again from
-its own sources with the FMI 3.0 wrapper (:func:`synthesis.fmi.native.builders.fmi3.fmi3_variant`)::
+law, the native twin ``descent-fmus build-plant`` wrote of a user's plant -- compiled again
+from its own sources with the FMI 3.0 wrapper
+(:func:`synthesis.fmi.native.builders.fmi3.fmi3_variant`)::
 
     descent-fmus build-plant my_plant.py -d build
     descent-fmus fmi3-variant build/native/MyPlant.fmu --out MyPlant3.fmu
