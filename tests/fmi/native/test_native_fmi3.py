@@ -270,6 +270,23 @@ def test_variant_reads_back_the_variable_table(fmu_dir, tmp_path):
             fmi3_variant(other, tmp_path / "again.fmu")     # an FMI 3.0, pythonfmu, container
 
 
+def test_a_variant_reuses_its_twins_objects(tmp_path):
+    # within reusing_objects() (build_fmus.py) the model's objects of the FMI 2.0 build are
+    # kept and the variant compiles none of them again; they are dropped at the end
+    from descent_fmus.synthesis.fmi.native.builders import build
+    law = NetworkOperator.load(REENTRY_LAW)
+    with build.reusing_objects():
+        fmu2 = build_law_fmu(law, tmp_path / "Law.fmu", "Law")
+        kept = set(build._MODEL_KEYS)
+        objects = [build._OBJECTS[k] for k in kept]
+        assert len(kept) == 2                           # law_model.c and law.c
+        fmi3_variant(fmu2, tmp_path / "fmi3" / "Law.fmu")
+        assert build._MODEL_KEYS == kept
+    assert not build._MODEL_KEYS and not any(o.exists() for o in objects)
+    kwargs = dict(stop_time=3.0, output_interval=1.0)
+    assert _simulate(tmp_path / "fmi3" / "Law.fmu", **kwargs) == _simulate(fmu2, **kwargs)
+
+
 def test_export_law_fmi3(fmu_dir, tmp_path, capsys):
     out = tmp_path / "law"
     assert main(["export-law", str(REENTRY_LAW), "--native", "--fmi3", "--out", str(out),

@@ -163,9 +163,10 @@ def _cached_object(cc: str, sources_dir: Path, name: str) -> Path:
     key = hashlib.sha256(repr((cc, COMPILE_FLAGS, name, (sources_dir / name).read_bytes(),
                                [(h.name, h.read_bytes()) for h in headers])).encode()).hexdigest()
     with _OBJECTS_LOCK:                  # laws are exported in parallel threads
+        obj = _compiled_object(cc, sources_dir, name, key)
         if name not in FMI3_WRAPPER_FILES:
             _MODEL_KEYS.add(key)
-        return _compiled_object(cc, sources_dir, name, key)
+        return obj
 
 
 def _compiled_object(cc: str, sources_dir: Path, name: str, key: str) -> Path:
