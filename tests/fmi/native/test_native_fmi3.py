@@ -9,6 +9,8 @@ messages of the FMI 2.0 wrapper, which the FMI 3.0 one reuses.
 from __future__ import annotations
 
 import json
+import re
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -25,7 +27,7 @@ from fmpy.validation import validate_fmu
 from descent_fmus.synthesis.cli.main import main
 from descent_fmus.synthesis.fmi.closed_loop import ClosedLoop
 from descent_fmus.synthesis.fmi.description.fmi3 import model_description
-from descent_fmus.synthesis.fmi.native.builders.build import (FMI3_GENERATION_TOOL,
+from descent_fmus.synthesis.fmi.native.builders.build import (FMI3_GENERATION_TOOL, c_file,
                                                               find_compiler, fmi3_rows,
                                                               platform_folder, platform_tuple)
 from descent_fmus.synthesis.fmi.native.builders.fmi3 import (NotNativeError, build_fmi3_variants,
@@ -86,6 +88,26 @@ def test_the_large_variants_pass_fmpy_validate(pairs):
     for name, (_, fmu3) in pairs.items():
         if len(read_model_description(str(fmu3)).modelVariables) >= 100:
             assert validate_fmu(str(fmu3)) == [], name
+
+
+def test_a_variant_exports_the_fmi3_functions_only(pairs, tmp_path):
+    # every FMI 3.0 function of the standard's headers, none of the FMI 2.0 wrapper compiled
+    # inside it, and no Python
+    nm = shutil.which("nm")
+    if nm is None:
+        pytest.skip("nm (binutils) not installed")
+    fmu3 = pairs["GuidedNetworkOperatorController"][1]
+    lib = tmp_path / "lib.so"
+    with zipfile.ZipFile(fmu3) as z:
+        (so,) = [n for n in z.namelist() if n.startswith("binaries/")]
+        lib.write_bytes(z.read(so))
+    dyn = subprocess.run([nm, "-D", "--defined-only", str(lib)], capture_output=True, text=True,
+                         check=True).stdout
+    exported = {line.split()[-1] for line in dyn.splitlines() if " T " in line}
+    header = (Path(c_file("fmi3Functions.h"))).read_text()
+    declared = set(re.findall(r"^#define (fmi3\w+)\s+fmi3FullName", header, re.M))
+    assert len(declared) == 75 and exported == declared
+    assert not any("Py" in line or "python" in line.lower() for line in dyn.splitlines())
 
 
 def _columns(result) -> dict:
