@@ -6,8 +6,9 @@ the model's C files, the FMI 2.0 headers) and ``binaries/<platform>/<identifier>
 here with the system's C compiler.  No Python is involved at run time: the binary depends on the
 C library and its math library only.  On another platform, ``fmpy compile X.fmu`` (CMake) or any
 FMI tool that builds source FMUs builds it from ``sources/``.  ``fmi_version=3`` writes the FMI 3.0
-variant of the same model (the wrapper ``fmi3_cs.c``, its model description and build description
-from :mod:`.fmi3`).
+variant of the same model: the wrapper ``fmi3_cs.c``, the model and build descriptions of the same
+variable table (:func:`fmi3_rows`, :mod:`synthesis.fmi.description.fmi3`); :mod:`.fmi3` makes
+one of a built FMI 2.0 FMU.
 
 The compiler is ``$CC`` if set, else the first of ``cc``, ``gcc``, ``clang`` on the PATH
 (:func:`find_compiler`); none found is :class:`CompilerNotFoundError` (callers fall back to the
