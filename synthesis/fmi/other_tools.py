@@ -204,8 +204,8 @@ def run_libcosim(path, step: float, stop_time: float, log: dict) -> HostRun:
     ex.add_observer(observer)
     wanted = []
     for comp, names in log.items():
-        index = ex.slave_index_from_instance_name(comp)
-        if index < 0:
+        index = ex.slave_index_from_instance_name(comp)     # None or -1 if there is none
+        if index is None or index < 0:
             raise ValueError(f"{Path(path).name} has no component {comp!r}")
         refs = {_text(v.name): (v.reference, v.type) for v in ex.slave_variables(index)}
         for name in names:

@@ -94,3 +94,18 @@ def test_libcosim_flies_every_native_loop_as_the_jacobi_master(fmu_dir):
     for spec in specs:
         worst, host, ref = _libcosim_against_jacobi(spec, fmu_dir)
         assert worst <= 1e-9, spec.wiring.name        # measured: 0 for all seven
+
+
+def test_libcosim_bad_input_is_one_clear_error(fmu_dir):
+    ssp = fmu_dir / "native" / "ReentryClosedLoop.ssp"
+    cases = [({"pilot": ["L"]}, 1.0, ValueError, "has no component 'pilot'"),
+             ({"plant": ["Lx"]}, 1.0, ValueError, "component 'plant' has no variable 'Lx'"),
+             ({"plant": ["L"]}, 1e-10, ValueError, "libcosim steps whole nanoseconds")]
+    for log, step, error, words in cases:
+        try:
+            with pytest.raises(error, match=words):
+                run_libcosim(ssp, step, 300.0, log)
+        except LibcosimUnavailable as exc:
+            pytest.skip(str(exc))
+    with pytest.raises(RuntimeError, match="libcosim cannot load"):
+        run_libcosim(fmu_dir / "Reentry.fmu", 1.0, 300.0, {})       # not an SSP file
