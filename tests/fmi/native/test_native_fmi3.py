@@ -197,6 +197,8 @@ def test_fmpy_simulate_cli(pairs, tmp_path):
 def test_fmpy_compile_rebuilds_a_variant(pairs, tmp_path):
     # another tool's build of the shipped sources (fmpy compile: CMake and the FMI 3.0
     # sources/buildDescription.xml) flies as the FMI 2.0 FMU, bitwise
+    if shutil.which("cmake") is None:
+        pytest.skip("cmake not installed (fmpy compile needs it; CI installs it)")
     fmu2, fmu3 = pairs["Reentry"]
     rebuilt = tmp_path / "Reentry.fmu"
     rebuilt.write_bytes(fmu3.read_bytes())
