@@ -1,7 +1,8 @@
 """``descent-fmus export-law LAW.json --out DIR``: a law file as a native C FMU (no Python in the
 host) or a pythonfmu FMU, with its readable form and ``law.h``/``law.c``
 (:func:`synthesis.fmi.law_files.export_law_files`); ``--closed-loop`` adds the closed loop of
-the law's problem and its SSP file."""
+the law's problem and its SSP file; ``--fmi3`` adds the FMI 3.0 variant of the native law FMU
+(``fmi3/<ID>.fmu``)."""
 from __future__ import annotations
 
 import json
@@ -36,6 +37,9 @@ def add_export_law_command(sub) -> None:
     p.add_argument("--closed-loop", action="store_true",
                    help="also the closed-loop FMU and SSP of the law's problem (plant FMU + "
                         "this law FMU)")
+    p.add_argument("--fmi3", action="store_true",
+                   help="also the FMI 3.0 variant of the native law FMU, fmi3/<ID>.fmu (the "
+                        "FMI 2.0 one stays: closed loops and SSP files take FMI 2.0)")
     p.add_argument("--problem", default=None, metavar="NAME",
                    help="the law's registered problem (default: the 'problem' field of the law "
                         "file); or --problem-file")
@@ -63,6 +67,17 @@ def _problem_of(args, doc: dict):
         return get_problem(name)
     except UnknownProblemError as exc:
         raise CliError(str(exc)) from None
+
+
+def _fmi3_law(files: dict, folder: Path) -> str:
+    """The FMI 3.0 variant of the exported native law FMU, ``<folder>/fmi3/<ID>.fmu``."""
+    from descent_fmus.synthesis.fmi.native.builders.fmi3 import fmi3_variant
+    if files["law_fmu"] != "native":
+        raise CliError(f"--fmi3 needs the native law FMU, but this law is exported as a "
+                       f"pythonfmu FMU ({files['note'] or 'asked with --python'}); pythonfmu "
+                       f"FMUs are FMI 2.0 only")
+    ctrl = Path(files["controller_fmu"])
+    return str(fmi3_variant(ctrl, folder / "fmi3" / ctrl.name))
 
 
 def run_export_law(args) -> int:
@@ -98,6 +113,8 @@ def run_export_law(args) -> int:
                                  closed_loop=args.closed_loop,
                                  description=f"law {args.law.name}",
                                  extra={"problem": problem.name} if problem else None)
+        if args.fmi3:
+            files["controller_fmu_fmi3"] = _fmi3_law(files, tmp)
         if out.exists():
             out.rmdir()                 # empty (checked above)
         mask = os.umask(0)
@@ -108,7 +125,7 @@ def run_export_law(args) -> int:
         raise CliError(str(exc)) from None
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
-    paths = {k: str(out / Path(v).name) for k, v in files.items()
+    paths = {k: str(out / Path(v).relative_to(tmp)) for k, v in files.items()
              if k not in ("law_fmu", "note")}
     r = law.readable()
     summary = dict(paths, law_fmu=kind, note=note, readable=r.to_dict(), out=str(out))

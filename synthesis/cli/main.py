@@ -42,6 +42,8 @@ def build_parser() -> argparse.ArgumentParser:
     add_export_law_command(sub)
     from descent_fmus.synthesis.cli.build_plant import add_build_plant_command
     add_build_plant_command(sub)
+    from descent_fmus.synthesis.cli.fmi3_variant import add_fmi3_variant_command
+    add_fmi3_variant_command(sub)
     p = sub.add_parser("problems", help="list the registered synthesis problems and systems")
     add_common_options(p, fmus=False)
     p.set_defaults(func=run_problems)

@@ -24,7 +24,7 @@ from fractions import Fraction
 from xml.etree import ElementTree as ET
 
 __all__ = ["BASE", "unit_of_description", "normalise", "base_unit", "UnitError",
-           "units_into_model_description"]
+           "units_into_model_description", "unit_definitions"]
 
 #: FMI 2.0 base-unit attributes (exponents), in schema order.
 BASE = ("kg", "m", "s", "A", "K", "mol", "cd", "rad")
@@ -105,7 +105,7 @@ def base_unit(unit: str) -> tuple[dict, float] | None:
     return {b: int(exps[b]) for b in BASE if b in exps}, factor
 
 
-def _unit_definitions(units) -> ET.Element:
+def unit_definitions(units) -> ET.Element:
     """``<UnitDefinitions>`` of the unit names ``units`` (SI exponents: :func:`base_unit`)."""
     defs = ET.Element("UnitDefinitions")
     for name in sorted(units):
@@ -142,5 +142,5 @@ def units_into_model_description(root: ET.Element) -> set:
         children = list(root)
         at = max((k + 1 for k, c in enumerate(children)
                   if c.tag in ("ModelExchange", "CoSimulation")), default=0)
-        root.insert(at, _unit_definitions(units))
+        root.insert(at, unit_definitions(units))
     return units

@@ -8,6 +8,8 @@ Folders by job:
   controllers, laws, program tables and plants as FMUs, the native closed-loop FMUs;
 * ``c/fmi2/`` -- the generic FMI 2.0 co-simulation wrapper (``fmi2_cs.c``, written once), the
   vendored FMI 2.0 headers and the status wrapper of pythonfmu FMUs;
+* ``c/fmi3/`` -- the FMI 3.0 co-simulation wrapper (``fmi3_cs.c``: an adapter over
+  ``fmi2_cs.c``, compiled into it) and the vendored FMI 3.0.2 headers;
 * ``c/runtime/`` -- the C runtime of the traced code (Python-exact helpers, the stepping loops,
   the plant model glue, CPython's random generator, Brent's root search);
 * ``c/controllers/`` -- the generic controllers in C (the network-operator interpreter, the

@@ -1,4 +1,4 @@
-"""The builders of native FMUs: C sources + the generic FMI 2.0 wrapper, compiled here.
+"""The builders of native FMUs: C sources + the generic FMI 2.0 (or 3.0) wrapper, compiled here.
 
 * :mod:`.build` -- the compiler, the C folders by job (:func:`.build.c_file`) and the FMU
   writer (model description, sources, binary);
@@ -7,7 +7,8 @@
   interpreter, the program-table player) and the twin builder the systems' own twins use;
 * :mod:`.law_fmu`, :mod:`.table_fmu` -- a law, a program table as a native FMU;
 * :mod:`.plant_fmu` -- a plant as a native FMU (C traced by :mod:`..tracer`);
-* :mod:`.closed_loops` -- the container FMUs and SSP files of native closed loops.
+* :mod:`.closed_loops` -- the container FMUs and SSP files of native closed loops;
+* :mod:`.fmi3` -- the FMI 3.0 variant of a native FMU (the same C model, the FMI 3.0 wrapper).
 
 What each system builds natively is named by its ``System`` record (``native_plants``,
 ``native_controllers``); the builders take it as arguments and know no system.

@@ -1,11 +1,14 @@
-"""Build native FMUs: a model's C sources + the generic FMI 2.0 wrapper, compiled here.
+"""Build native FMUs: a model's C sources + the generic FMI 2.0 (or 3.0) wrapper, compiled here.
 
 A native FMU holds ``modelDescription.xml`` (the variables, ``<SourceFiles>`` naming the C files
 to compile), ``sources/`` (everything needed to rebuild it: the generic wrapper ``fmi2_cs.c``,
 the model's C files, the FMI 2.0 headers) and ``binaries/<platform>/<identifier>.so`` compiled
 here with the system's C compiler.  No Python is involved at run time: the binary depends on the
 C library and its math library only.  On another platform, ``fmpy compile X.fmu`` (CMake) or any
-FMI tool that builds source FMUs builds it from ``sources/``.
+FMI tool that builds source FMUs builds it from ``sources/``.  ``fmi_version=3`` writes the FMI 3.0
+variant of the same model: the wrapper ``fmi3_cs.c``, the model and build descriptions of the same
+variable table (:func:`fmi3_rows`, :mod:`synthesis.fmi.description.fmi3`); :mod:`.fmi3` makes
+one of a built FMI 2.0 FMU.
 
 The compiler is ``$CC`` if set, else the first of ``cc``, ``gcc``, ``clang`` on the PATH
 (:func:`find_compiler`); none found is :class:`CompilerNotFoundError` (callers fall back to the
@@ -23,21 +26,28 @@ import tempfile
 import threading
 import uuid
 import zipfile
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
 __all__ = ["C_ROOT", "C_FOLDERS", "c_file", "Variable", "CompilerNotFoundError",
            "NativeBuildError", "find_compiler", "platform_folder", "build_fmu", "compile_sources",
-           "cached_library", "COMPILE_FLAGS", "KINDS"]
+           "cached_library", "COMPILE_FLAGS", "KINDS", "write_native_fmu", "FMI3_WRAPPER_FILES",
+           "reusing_objects", "platform_tuple", "fmi3_rows", "FMI3_GENERATION_TOOL"]
 
-#: The hand-written C files shipped as package data, in folders by job: the FMI 2.0 wrapper with
-#: its vendored headers, the runtime of the traced C, the generic controllers, the C master.
+#: The hand-written C files shipped as package data, in folders by job: the FMI 2.0 and 3.0
+#: wrappers with their vendored headers, the runtime of the traced C, the generic controllers,
+#: the C master.
 C_ROOT = Path(__file__).resolve().parent.parent / "c"
-C_FOLDERS = tuple(C_ROOT / job for job in ("fmi2", "runtime", "controllers", "master"))
+C_FOLDERS = tuple(C_ROOT / job for job in ("fmi2", "fmi3", "runtime", "controllers", "master"))
 #: The FMI 2.0 headers (Modelica Association, 2-clause BSD licence) and the wrapper.
 WRAPPER_FILES = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h",
                  "native_model.h", "py_repr.h", "fmi2_cs.c")
+#: The FMI 3.0 wrapper: an adapter that compiles the FMI 2.0 wrapper into itself, so it ships
+#: those files too, and the FMI 3.0.2 headers.
+FMI3_WRAPPER_FILES = WRAPPER_FILES + ("fmi3Functions.h", "fmi3FunctionTypes.h",
+                                      "fmi3PlatformTypes.h", "fmi3_cs.c")
 #: Flags of the native build.  -ffp-contract=off: no fused multiply-add, so every operation
 #: rounds as the Python evaluation does; -fvisibility=hidden: only the FMI functions are
 #: exported (they are marked visible by fmi2Functions.h).
@@ -118,17 +128,46 @@ def _run(cmd, what) -> None:
 
 # Objects of the hand-written files (the same for every FMU), compiled once per process: a
 # synthesis run exports hundreds of laws.  Keyed by compiler, flags and the sources' content.
+# Within reusing_objects() the model's files too (their keys in _MODEL_KEYS, dropped at its end).
 _OBJECTS: dict = {}
 _OBJECT_DIR: list = []
 _OBJECTS_LOCK = threading.Lock()
+_MODEL_KEYS: set = set()
+_REUSING: list = []
+
+
+@contextmanager
+def reusing_objects():
+    """Within this block every object compiled for a native FMU is kept, keyed by its sources,
+    and reused by the later builds of the process: the FMI 3.0 variant of an FMU built just
+    before compiles its wrapper only (``build_fmus.py``).  The objects are dropped at the end."""
+    with _OBJECTS_LOCK:
+        _REUSING.append(True)
+    try:
+        yield
+    finally:
+        with _OBJECTS_LOCK:
+            _REUSING.pop()
+            if not _REUSING:
+                for key in _MODEL_KEYS:
+                    _OBJECTS.pop(key).unlink(missing_ok=True)
+                _MODEL_KEYS.clear()
 
 
 def _cached_object(cc: str, sources_dir: Path, name: str) -> Path:
-    headers = [sources_dir / h for h in WRAPPER_FILES if h.endswith(".h")]
-    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, (sources_dir / name).read_bytes(),
+    if name in FMI3_WRAPPER_FILES:
+        # the wrapper files it may include (the FMI 3.0 wrapper includes fmi2_cs.c)
+        headers = [sources_dir / h for h in FMI3_WRAPPER_FILES
+                   if h != name and (sources_dir / h).is_file()]
+    else:   # a model file: the model's headers (the wrapper's are those of the package)
+        headers = sorted(h for h in sources_dir.glob("*.h") if h.name not in FMI3_WRAPPER_FILES)
+    key = hashlib.sha256(repr((cc, COMPILE_FLAGS, name, (sources_dir / name).read_bytes(),
                                [(h.name, h.read_bytes()) for h in headers])).encode()).hexdigest()
     with _OBJECTS_LOCK:                  # laws are exported in parallel threads
-        return _compiled_object(cc, sources_dir, name, key)
+        obj = _compiled_object(cc, sources_dir, name, key)
+        if name not in FMI3_WRAPPER_FILES:
+            _MODEL_KEYS.add(key)
+        return obj
 
 
 def _compiled_object(cc: str, sources_dir: Path, name: str, key: str) -> Path:
@@ -150,7 +189,7 @@ def compile_sources(sources_dir: Path, files, library: Path, compiler: str | Non
     ``include``: more folders of headers than ``sources_dir``.
 
     ``cached``: those of ``files`` whose object may be reused from an earlier build in this
-    process (the generic wrapper: it includes only the headers of :data:`WRAPPER_FILES`, which
+    process (the generic wrapper: it includes only files of :data:`FMI3_WRAPPER_FILES`, which
     are part of the key).
 
     Raises
@@ -271,6 +310,42 @@ def _xml(identifier, guid, description, variables, source_files, experiment) -> 
     return "\n".join(out) + "\n"
 
 
+def platform_tuple() -> str:
+    """The FMI 3.0 binaries folder of this machine (``x86_64-linux``, ``aarch64-darwin``...)."""
+    machine = platform.machine().lower()
+    arch = {"amd64": "x86_64", "x64": "x86_64", "arm64": "aarch64"}.get(machine, machine)
+    if sys.maxsize <= 2 ** 32 and arch == "x86_64":
+        arch = "x86"
+    system = ("linux" if sys.platform.startswith("linux") else "darwin"
+              if sys.platform == "darwin" else "windows")
+    return f"{arch}-{system}"
+
+
+#: generationTool of the FMI 3.0 variants
+FMI3_GENERATION_TOOL = "descent-fmus (native C export, FMI 3.0)"
+
+
+def fmi3_rows(variables) -> list:
+    """The FMI 3.0 description rows of a native FMU's variables (value references in list
+    order): the table of the FMI 2.0 description, in the terms of
+    :mod:`synthesis.fmi.description.fmi3`."""
+    from descent_fmus.synthesis.fmi.description.fmi3 import Row
+    return [Row(v.name, vr, KINDS[v.kind][0], KINDS[v.kind][1], v.type,
+                None if v.kind == "output" else v.start, v.description)
+            for vr, v in enumerate(variables)]
+
+
+def _fmi3_descriptions(root: Path, identifier: str, guid: str, description: str, variables,
+                       c_files, experiment: dict | None) -> None:
+    """``modelDescription.xml`` and ``sources/buildDescription.xml`` of an FMI 3.0 native FMU."""
+    from descent_fmus.synthesis.fmi.description.fmi3 import build_description, model_description
+    (root / "modelDescription.xml").write_bytes(
+        model_description(identifier, guid, description, fmi3_rows(variables), experiment,
+                          FMI3_GENERATION_TOOL))
+    (root / "sources" / "buildDescription.xml").write_bytes(
+        build_description(identifier, c_files))
+
+
 def _with_units(xml: str) -> bytes:
     """The model description with the unit of every Real variable (from the bracket that ends
     its description, as for the pythonfmu FMUs) and its ``<UnitDefinitions>``."""
@@ -289,7 +364,8 @@ def _kind_codes(variables, type_: str) -> str:
 
 
 def build_fmu(dest, identifier: str, description: str, variables, generated: dict,
-              model_files, experiment: dict | None = None, compiler: str | None = None) -> Path:
+              model_files, experiment: dict | None = None, compiler: str | None = None,
+              fmi_version: int = 2) -> Path:
     """Write the native FMU ``dest``: sources, compiled binary, model description.
 
     Parameters
@@ -309,6 +385,9 @@ def build_fmu(dest, identifier: str, description: str, variables, generated: dic
         system's own file as a path).
     experiment : dict, optional
         Default experiment (``startTime``, ``stopTime``, ``stepSize``).
+    fmi_version : {2, 3}
+        The FMI version of the FMU (the same model, the same GUID: the FMI 3.0 instantiation
+        token).
 
     Raises
     ------
@@ -333,21 +412,45 @@ def build_fmu(dest, identifier: str, description: str, variables, generated: dic
                + (", ".join(str(int(v.start)) for v in ints) or "0") + "\n"
                f"#define MODEL_CONFIG_INTEGER_KIND {_kind_codes(variables, 'Integer')}\n")
     files = dict(generated, **{"model_config.h": config})
-    c_files = ["fmi2_cs.c"] + [f for f in names if f.endswith(".c")] + \
-        sorted(f for f in files if f.endswith(".c"))
-    folder, suffix = platform_folder()
+    model_c = [f for f in names if f.endswith(".c")] + sorted(f for f in files if f.endswith(".c"))
+    return write_native_fmu(dest, identifier, guid, description, variables, files, model_files,
+                            model_c, experiment, compiler, fmi_version)
+
+
+def write_native_fmu(dest, identifier: str, guid: str, description: str, variables, files: dict,
+                     model_files, model_c, experiment: dict | None = None,
+                     compiler: str | None = None, fmi_version: int = 2) -> Path:
+    """Compile and write the native FMU ``dest`` of a model whose ``model_config.h`` is final:
+    ``files`` (name -> text or bytes: generated sources), ``model_files`` (:func:`c_file`
+    names or paths to copy), ``model_c`` (the model's C files to compile, in order) and the
+    wrapper of ``fmi_version`` (2: ``fmi2_cs.c``; 3: ``fmi3_cs.c``, an adapter over it, with
+    the FMI 3.0 model and build descriptions of the same table: :func:`fmi3_rows`)."""
+    dest = Path(dest)
+    if fmi_version == 2:
+        wrapper, main = WRAPPER_FILES, "fmi2_cs.c"
+        folder, suffix = platform_folder()
+    elif fmi_version == 3:
+        wrapper, main = FMI3_WRAPPER_FILES, "fmi3_cs.c"
+        folder, suffix = platform_tuple(), platform_folder()[1]
+    else:
+        raise ValueError(f"fmi_version must be 2 or 3, got {fmi_version!r}")
+    c_files = [main] + list(model_c)
     with tempfile.TemporaryDirectory(prefix="descent_native_") as tmp:
         root = Path(tmp) / "fmu"
         src = root / "sources"
         src.mkdir(parents=True)
-        for name in list(WRAPPER_FILES) + list(model_files):
+        for name in list(wrapper) + list(model_files):
             shutil.copy(c_file(name), src / c_file(name).name)
         for name, text in files.items():
-            (src / name).write_text(text)
+            (src / name).write_bytes(text if isinstance(text, bytes) else text.encode())
         compile_sources(src, c_files, root / "binaries" / folder / (identifier + suffix),
-                        compiler, cached=["fmi2_cs.c"])
-        (root / "modelDescription.xml").write_bytes(
-            _with_units(_xml(identifier, guid, description, variables, c_files, experiment)))
+                        compiler, cached=c_files if _REUSING else [main])
+        if fmi_version == 2:
+            (root / "modelDescription.xml").write_bytes(
+                _with_units(_xml(identifier, guid, description, variables, c_files, experiment)))
+        else:
+            _fmi3_descriptions(root, identifier, guid, description, variables, c_files,
+                               experiment)
         dest.parent.mkdir(parents=True, exist_ok=True)
         part = dest.with_name(dest.name + ".part")
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
