@@ -368,3 +368,25 @@ def test_bad_start_values_resource_fails_instantiation(tmp_path, text):
     with pytest.raises(Exception):
         load_slave(bad, "bad", log)
     assert len(log) == 1 and "resources/start_values.txt line" in log[0], log
+
+
+def test_a_law_beyond_the_interpreter_is_compiled(tmp_path):
+    # 36 nodes (the interpreter holds 32): the export compiles the law's C instead, and that
+    # FMU gives the law's outputs bitwise (oracle: the law evaluated in Python)
+    L = 36
+    psi = np.zeros((L, L), dtype=int)
+    for j in range(3, L):
+        psi[j, j], psi[j - 1, j] = 1, 1          # a chain of sums: node j = node j-1
+    psi[0, 3], psi[2, 3] = 1, 2                  # node 4 = x1 + q1 ** 2 (rho 2: square)
+    law = NetworkOperator(psi, nx=2, q=[0.5], outputs=[L], bounds=[(-1.0, 1.0)])
+    files = export_law_files(law, tmp_path / "big", law_fmu="native", identifier="Big")
+    with zipfile.ZipFile(files["controller_fmu"]) as z:
+        assert "sources/law.c" in z.namelist()
+        assert "resources/start_values.txt" not in z.namelist()
+    xs = [[0.1, 0.2], [-0.3, 5.0], [1e300, -1.0], [0.0, -0.0]]
+    fmu = load_slave(files["controller_fmu"], "big")
+    try:
+        got = outputs_of(fmu, start(fmu, {}), law, xs)
+    finally:
+        fmu.freeInstance()
+    assert [bits(u[0]) for u in got] == [bits(law(x)[0]) for x in xs]
