@@ -31,10 +31,10 @@ OUTPUTS = ("u[1]", "correction", "predicted_miss", "drag_factor_log", "drag_fact
 
 
 @pytest.fixture(scope="module")
-def guided_twin(tmp_path_factory):
-    from descent_fmus.synthesis.systems.reentry.native.controllers import build_guided_controller
-    return build_guided_controller(tmp_path_factory.mktemp("guided") /
-                                   "GuidedNetworkOperatorController.fmu")
+def guided_twin(native_twin):
+    """The native guided controller, built from this checkout's C once per session
+    (tests/conftest.py; its builder: build_guided_controller)."""
+    return native_twin("GuidedNetworkOperatorController")
 
 
 @pytest.fixture(scope="module")
@@ -172,9 +172,10 @@ def test_guided_twin_names_errors_as_the_python_controller(fmu_dir, guided_twin)
 
 # -- the NPC baseline (ReentryNPC) ------------------------------------------------------------
 @pytest.fixture(scope="module")
-def npc_twin(tmp_path_factory):
-    from descent_fmus.synthesis.systems.reentry.native.controllers import build_npc_controller
-    return build_npc_controller(tmp_path_factory.mktemp("npc") / "ReentryNPC.fmu")
+def npc_twin(native_twin):
+    """The native NPC controller, built once per session (tests/conftest.py; its builder:
+    build_npc_controller)."""
+    return native_twin("ReentryNPC")
 
 
 def test_npc_twin_flies_as_the_pythonfmu_controller(fmu_dir, npc_twin, problem):

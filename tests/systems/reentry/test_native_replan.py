@@ -105,10 +105,10 @@ def test_onboard_lp_refuses_malformed_programmes(kw, match):
 
 
 @pytest.fixture(scope="module")
-def guided_twin(tmp_path_factory):
-    from descent_fmus.synthesis.systems.reentry.native.controllers import build_guided_controller
-    return build_guided_controller(tmp_path_factory.mktemp("replan") /
-                                   "GuidedNetworkOperatorController.fmu")
+def guided_twin(native_twin):
+    """The native guided controller, built from this checkout's C once per session
+    (tests/conftest.py; its builder: build_guided_controller)."""
+    return native_twin("GuidedNetworkOperatorController")
 
 
 def _samples(n: int):
