@@ -1,21 +1,29 @@
-"""Benchmark: exporting the Pareto laws of a synthesis run -- compact native vs full pythonfmu.
+"""Benchmark: exporting the Pareto laws of a synthesis run -- interpreter vs compiled native.
 
-A default ``synthesize reentry`` run ends with about 200 Pareto laws.  This script exports N
+A default ``synthesize reentry`` run ends with about 100 Pareto laws.  This script exports N
 laws (the laws of a finished run's pareto.json, or N laws the GA's variations make from the
-reentry basic law) the way ``synthesize`` now does by default (law.json with the readable
-formula, law.h/law.c, the native law FMU) and, for a few of them, the old way (pythonfmu
-controller + closed-loop FMU + SSP), and prints sizes, times and their ratios.  It also times
-one closed-loop flight with the native law against the pythonfmu controller.
+reentry basic law) the way ``synthesize`` does by default (law.json with the readable formula,
+law.h/law.c, the native law FMU: the interpreter with the law's start values, no compile), and
+the way it did before (the same files with a law FMU compiled per law, 4 threads), and prints
+the export times and rates side by side (target: 100 laws <= 1 s).  The readable formulas
+(SymPy) are timed apart: a run computes them in its report (pareto.csv) before the export,
+which then finds them cached.  It also exports a few laws the full pythonfmu way (controller +
+closed-loop FMU + SSP) and times one closed-loop flight with the native law against the
+pythonfmu controller.
 
-    python benchmarks/law_export.py [--laws 200] [--run DIR] [--fmus DIR] [--json]
+    python benchmarks/law_export.py [--laws 100] [--run DIR] [--fmus DIR] [--full 3] [--json]
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import resource
 import statistics
+import sys
 import tempfile
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -25,6 +33,9 @@ from descent_fmus.synthesis.methods.encoding import StructureCodec
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.paths import fmu_dir
 from descent_fmus.synthesis.registry import get_problem
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from native_paths import machine  # noqa: E402  (the machine line every benchmark prints)
 
 
 def ga_laws(n: int, seed: int = 0) -> list:
@@ -42,13 +53,30 @@ def ga_laws(n: int, seed: int = 0) -> list:
     return laws
 
 
+def export_all(laws, folder: Path, compiled: bool, problem) -> tuple[float, float]:
+    """``(wall, CPU)`` seconds to export ``laws`` into ``folder/<k>`` as a run does: the
+    interpreter law FMUs in one thread, the compiled ones in 4 (the run's pool while a compile
+    per law waited); the CPU time of this process and of the compilers it ran (on a busy
+    machine the CPU time is what a quiet one would take)."""
+    def one(k):
+        export_law_files(laws[k], folder / str(k), law_fmu="native", compiled=compiled,
+                         identifier=f"ReentryLaw{k}", problem=problem)
+    def cpu():
+        kids = resource.getrusage(resource.RUSAGE_CHILDREN)
+        return time.process_time() + kids.ru_utime + kids.ru_stime
+    t0, c0 = time.perf_counter(), cpu()
+    with ThreadPoolExecutor(max_workers=min(4, os.cpu_count() or 1) if compiled else 1) as pool:
+        list(pool.map(one, range(len(laws))))
+    return time.perf_counter() - t0, cpu() - c0
+
+
 def folder_bytes(path: Path) -> int:
     return sum(p.stat().st_size for p in Path(path).rglob("*") if p.is_file())
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--laws", type=int, default=200)
+    ap.add_argument("--laws", type=int, default=100)
     ap.add_argument("--full", type=int, default=3, help="laws also exported the old way")
     ap.add_argument("--run", type=Path, default=None, help="a finished run: its Pareto laws")
     ap.add_argument("--fmus", type=Path, default=fmu_dir())
@@ -63,21 +91,29 @@ def main(argv=None):
     out = {}
     with tempfile.TemporaryDirectory(prefix="law_export_") as tmp:
         tmp = Path(tmp)
-        t_read, t0 = [], time.perf_counter()
-        for k, law in enumerate(laws):
+        export_all(laws[:1], tmp / "warm", False, problem)   # the interpreter: built or found
+        export_all(laws[:1], tmp / "warm_c", True, problem)  # the wrapper's object, compiled
+        t_read = []
+        for law in laws:
             t1 = time.perf_counter()
             law.readable()
             t_read.append(time.perf_counter() - t1)
-            export_law_files(law, tmp / "compact" / str(k), law_fmu="native",
-                             identifier=f"ReentryLaw{k}", problem=problem)
-        t_compact = time.perf_counter() - t0
+        t_compact, cpu_compact = export_all(laws, tmp / "compact", False, problem)
+        t_compiled, cpu_compiled = export_all(laws, tmp / "compiled", True, problem)
         fmus = sorted((tmp / "compact").rglob("*.fmu"))
         sizes = [p.stat().st_size for p in fmus]
         out["laws"] = len(laws)
+        out["export_s"] = t_compact
+        out["export_laws_per_s"] = len(laws) / t_compact
+        out["export_cpu_s"] = cpu_compact
+        out["export_compiled_cpu_s"] = cpu_compiled
+        out["export_compiled_s"] = t_compiled
+        out["export_compiled_laws_per_s"] = len(laws) / t_compiled
+        out["speedup"] = t_compiled / t_compact
+        out["readable_s"] = sum(t_read)
         out["compact_total_MB"] = folder_bytes(tmp / "compact") / 2 ** 20
         out["native_fmu_KB_mean"] = statistics.mean(sizes) / 1024
         out["native_fmu_KB_max"] = max(sizes) / 1024
-        out["compact_s_per_law"] = t_compact / len(laws)
         out["readable_s_per_law_median"] = statistics.median(t_read)
         out["readable_s_per_law_max"] = max(t_read)
         t0 = time.perf_counter()
@@ -109,13 +145,21 @@ def main(argv=None):
         out["flight_ms_pythonfmu_controller"] = 1e3 * times["pythonfmu"]
         out["flight_ms_native_law"] = 1e3 * times["native"]
         out["flight_speedup"] = times["pythonfmu"] / times["native"]
+    out["machine"] = machine()
     if args.json:
         print(json.dumps(out, indent=1))
     else:
-        print(f"{out['laws']} laws exported compact (law.json, law.h/law.c, native FMU): "
-              f"{out['compact_total_MB']:.1f} MB, {out['compact_s_per_law']:.2f} s a law "
-              f"(readable form: median {out['readable_s_per_law_median']:.3f} s, max "
-              f"{out['readable_s_per_law_max']:.2f} s)")
+        print(out["machine"])
+        print(f"export of {out['laws']} laws (law.json, law.h/law.c, native law FMU; readable "
+              f"forms cached as in a run): interpreter {out['export_s']:.2f} s "
+              f"({out['export_laws_per_s']:.0f} laws/s; target: 100 laws <= 1 s) vs compiled "
+              f"per law {out['export_compiled_s']:.2f} s ({out['export_compiled_laws_per_s']:.0f}"
+              f" laws/s, 4 threads): {out['speedup']:.1f}x; CPU time {out['export_cpu_s']:.2f} s "
+              f"vs {out['export_compiled_cpu_s']:.1f} s (the compilers included)")
+        print(f"readable forms (SymPy, computed by the report before the export): "
+              f"{out['readable_s']:.2f} s for {out['laws']} laws (median "
+              f"{out['readable_s_per_law_median']:.3f} s, max "
+              f"{out['readable_s_per_law_max']:.2f} s a law); {out['compact_total_MB']:.1f} MB")
         print(f"native law FMU: {out['native_fmu_KB_mean']:.0f} KB mean, "
               f"{out['native_fmu_KB_max']:.0f} KB max (target <= 200 KB)")
         print(f"old export (pythonfmu controller + closed loop + SSP): "

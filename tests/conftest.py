@@ -66,6 +66,22 @@ def fmu_dir(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
+def native_twin(tmp_path_factory):
+    """``native_twin(name)``: the path of the native twin ``name`` of the registry's controllers
+    (``registry.native_controllers()``: the generic ones and S1's), built from this checkout's
+    C once per test session, shared by the xdist workers and by every test file that flies it
+    (a twin such as the guided controller takes ~10 s of the compiler)."""
+    from descent_fmus.synthesis.registry import native_controllers
+    builders = native_controllers()
+
+    def twin(name: str) -> Path:
+        folder = once(tmp_path_factory, f"native_twin_{name}",
+                      lambda d: builders[name](d / f"{name}.fmu"))
+        return folder / f"{name}.fmu"
+    return twin
+
+
+@pytest.fixture(scope="session")
 def hopper_dir(tmp_path_factory) -> Path:
     """The tutorial's plant (``docs/tutorials/hopper.py``) built as the tutorial builds it
     (``descent-fmus build-plant``: ``Hopper.fmu`` and its native twin ``native/Hopper.fmu``),

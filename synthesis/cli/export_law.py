@@ -1,8 +1,9 @@
 """``descent-fmus export-law LAW.json --out DIR``: a law file as a native C FMU (no Python in the
 host) or a pythonfmu FMU, with its readable form and ``law.h``/``law.c``
-(:func:`synthesis.fmi.law_files.export_law_files`); ``--closed-loop`` adds the closed loop of
-the law's problem and its SSP file; ``--fmi3`` adds the FMI 3.0 variant of the native law FMU
-(``fmi3/<ID>.fmu``)."""
+(:func:`synthesis.fmi.law_files.export_law_files`); the native FMU is the network-operator
+interpreter with the law's start values, or with ``--compiled`` the law's own C compiled;
+``--closed-loop`` adds the closed loop of the law's problem and its SSP file; ``--fmi3`` adds
+the FMI 3.0 variant of the native law FMU (``fmi3/<ID>.fmu``)."""
 from __future__ import annotations
 
 import json
@@ -26,9 +27,13 @@ def add_export_law_command(sub) -> None:
                    "synthesis run, or any NetworkOperator.save)")
     kind = p.add_mutually_exclusive_group()
     kind.add_argument("--native", dest="law_fmu", action="store_const", const="native",
-                      help="compiled C FMU (default where a C compiler exists)")
+                      help="native C FMU: the network-operator interpreter with the law's start "
+                           "values (default where a C compiler exists)")
     kind.add_argument("--python", dest="law_fmu", action="store_const", const="python",
                       help="the pythonfmu NetworkOperatorController with the law as defaults")
+    p.add_argument("--compiled", action="store_true",
+                   help="a native FMU compiled from the law's own C (law.c inside it; the same "
+                        "flights as the interpreter FMU)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="output folder (must not exist or be empty: nothing is overwritten)")
     p.add_argument("--name", default=None, metavar="ID",
@@ -99,8 +104,10 @@ def run_export_law(args) -> int:
     except (LawFileError, OSError) as exc:
         raise CliError(f"{args.law}: {exc}") from None
     problem = _problem_of(args, doc if isinstance(doc, dict) else {})
+    if args.compiled and args.law_fmu == "python":
+        raise CliError("--compiled is a native FMU: drop --python")
     try:
-        kind, note = choose_law_fmu(args.law_fmu or "auto")
+        kind, note = choose_law_fmu("native" if args.compiled else args.law_fmu or "auto")
     except CompilerNotFoundError as exc:
         raise CliError(str(exc)) from None
     if note:
@@ -112,7 +119,8 @@ def run_export_law(args) -> int:
                                  identifier=args.name, problem=problem,
                                  closed_loop=args.closed_loop,
                                  description=f"law {args.law.name}",
-                                 extra={"problem": problem.name} if problem else None)
+                                 extra={"problem": problem.name} if problem else None,
+                                 compiled=args.compiled)
         if args.fmi3:
             files["controller_fmu_fmi3"] = _fmi3_law(files, tmp)
         if out.exists():

@@ -27,7 +27,7 @@ __all__ = ["write_results", "export_law", "plot_front", "feasibility"]
 
 def export_law(problem, law, fmu_dir: Path, dest: Path, description: str = "",
                law_fmu: str = "auto", closed_loop: bool = True, identifier: str | None = None,
-               extra: dict | None = None) -> dict:
+               extra: dict | None = None, compiled: bool = False) -> dict:
     """A law as files (:func:`synthesis.fmi.law_files.export_law_files`): ``law.json`` with its
     readable form, ``law.h``/``law.c``, the law FMU (native where a C compiler exists, else the
     pythonfmu controller with the law as defaults) and, with ``closed_loop``, the closed-loop
@@ -39,7 +39,8 @@ def export_law(problem, law, fmu_dir: Path, dest: Path, description: str = "",
     from descent_fmus.synthesis.fmi.law_files import export_law_files
     out = export_law_files(law, dest, law_fmu=law_fmu, fmu_dir=fmu_dir, identifier=identifier,
                            description=description, problem=problem, closed_loop=closed_loop,
-                           extra=dict({"problem": problem.name}, **(extra or {})))
+                           extra=dict({"problem": problem.name}, **(extra or {})),
+                           compiled=compiled)
     out.pop("note")
     return out
 
@@ -181,15 +182,15 @@ def _export_laws(problem, rows, laws, what, out, fmu_dir, summary) -> None:
         return export_law(problem, law, fmu_dir, out / "laws" / str(r["k"]),
                           description=f"{problem.name} Pareto law {r['k']}",
                           law_fmu=kind, closed_loop=what.closed_loops,
-                          identifier=f"{stem}Law{r['k']}",
+                          identifier=f"{stem}Law{r['k']}", compiled=what.compiled,
                           extra={"k": r["k"], "objectives": {
                               n: r[n] for n in problem.objective_names}})
 
     # in parallel where a law's export waits mostly for the C compiler (a process of its own;
-    # a pythonfmu law FMU is Python work, which threads would only interleave); a stop (a
-    # signal, an error) cancels the laws not yet started and waits only for those under way,
-    # so that the run ends promptly
-    threads = min(4, os.cpu_count() or 1) if kind == "native" else 1
+    # the interpreter law FMU -- no compile -- and a pythonfmu law FMU are Python work, which
+    # threads would only interleave); a stop (a signal, an error) cancels the laws not yet
+    # started and waits only for those under way, so that the run ends promptly
+    threads = min(4, os.cpu_count() or 1) if kind == "native" and what.compiled else 1
     pool = ThreadPoolExecutor(max_workers=threads)
     try:
         futures = [pool.submit(one, r, law) for r, law in zip(rows, laws)]

@@ -41,8 +41,19 @@ def test_pythonfmu_fmus_carry_only_the_modules_they_import(fmu_dir):
 
 @needs_cc
 def test_export_law_native(fmu_dir, tmp_path, capsys):
+    # the default native FMU: the interpreter with the law's start values, no law.c inside;
+    # with --compiled the law's own C, flying the same (tests/fmi/native/test_native_law.py)
+    out = tmp_path / "interpreted"
+    assert main(["export-law", str(REENTRY_LAW), "--out", str(out), "--name", "BestLaw",
+                 "--fmus", str(fmu_dir)]) == 0
+    assert sorted(p.name for p in out.iterdir()) == ["BestLaw.fmu", "law.c", "law.h",
+                                                      "law.json"]
+    with zipfile.ZipFile(out / "BestLaw.fmu") as z:
+        assert "sources/law.c" not in z.namelist()
+        assert "resources/start_values.txt" in z.namelist()
+    capsys.readouterr()
     out = tmp_path / "law"
-    assert main(["export-law", str(REENTRY_LAW), "--native", "--out", str(out), "--name",
+    assert main(["export-law", str(REENTRY_LAW), "--compiled", "--out", str(out), "--name",
                  "BestLaw", "--fmus", str(fmu_dir), "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary["law_fmu"] == "native"
@@ -90,6 +101,15 @@ def test_bad_law_file(tmp_path, capsys, edit, message):
     assert main(["export-law", str(_law_file(tmp_path, edit)), "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert message in err and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_compiled_python_is_refused(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["export-law", str(REENTRY_LAW), "--compiled", "--python", "--out",
+                 str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "--compiled is a native FMU" in err and len(err.strip().splitlines()) == 1
     assert not out.exists()
 
 

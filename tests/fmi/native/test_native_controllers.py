@@ -35,10 +35,10 @@ pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (
 
 
 @pytest.fixture(scope="module")
-def native(tmp_path_factory):
-    """The native twins, built here (name -> FMU path)."""
-    d = tmp_path_factory.mktemp("native")
-    return {name: build(d / f"{name}.fmu") for name, build in NATIVE_CONTROLLERS.items()}
+def native(native_twin):
+    """The native twins (name -> FMU path), built from this checkout's C once per session
+    (tests/conftest.py)."""
+    return {name: native_twin(name) for name in NATIVE_CONTROLLERS}
 
 
 @pytest.fixture

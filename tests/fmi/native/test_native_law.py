@@ -30,7 +30,7 @@ from descent_fmus.synthesis.run.evaluation import Evaluator
 from descent_fmus.synthesis.fmi.law_files import export_law_files
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.fmi.native.builders.build import find_compiler
-from descent_fmus.synthesis.fmi.native.builders.law_fmu import build_law_fmu
+from descent_fmus.synthesis.fmi.native.builders.law_fmu import build_law_fmu, write_law_fmu
 from descent_fmus.synthesis.registry import get_problem
 from descent_fmus.synthesis.systems.reentry.laws import paper_basic_law, paper_law
 
@@ -85,24 +85,27 @@ def laws():
 
 @pytest.mark.parametrize("name,law", laws(), ids=[n for n, _ in laws()])
 def test_native_equals_pythonfmu_controller(name, law, generic, tmp_path):
-    # >= 2000 inputs per law (> 10 000 over the six laws), extremes included: every output
-    # bitwise equal to the pythonfmu controller's, and finite
-    path = build_law_fmu(law, tmp_path / "Law.fmu", "Law")
-    assert validate_fmu(str(path)) == []
-    assert path.stat().st_size <= 200 * 1024
+    # >= 2000 inputs per law (> 10 000 over the six laws), extremes included: every output of
+    # the compiled law FMU and of the interpreter law FMU (the law as its start values, no
+    # compile) bitwise equal to the pythonfmu controller's, and finite; both pass fmpy validate
+    compiled = build_law_fmu(law, tmp_path / "Law.fmu", "Law")
+    interpreted = write_law_fmu(law, tmp_path / "Interpreted.fmu", "Interpreted")
     rng = np.random.default_rng(len(name))
     xs = inputs(rng, law.nx, 1700)
     assert len(xs) >= 2000
-    native = load_slave(path, "native")
-    try:
-        want = outputs_of(generic, start(generic, law.start_values()), law, xs)
-        got = outputs_of(native, start(native, {}), law, xs)
-    finally:
-        native.terminate()
-        native.freeInstance()
-    for x, a, b in zip(xs, want, got):
-        assert [bits(v) for v in a] == [bits(v) for v in b], (x, a, b)
-        assert all(math.isfinite(v) for v in b)
+    want = outputs_of(generic, start(generic, law.start_values()), law, xs)
+    for path in (compiled, interpreted):
+        assert validate_fmu(str(path)) == []
+        assert path.stat().st_size <= 200 * 1024
+        native = load_slave(path, "native")
+        try:      # start() resets the instance first: the reset keeps the law's start values
+            got = outputs_of(native, start(native, {}), law, xs)
+        finally:
+            native.terminate()
+            native.freeInstance()
+        for x, a, b in zip(xs, want, got):
+            assert [bits(v) for v in a] == [bits(v) for v in b], (path.name, x, a, b)
+            assert all(math.isfinite(v) for v in b)
 
 
 def test_parameters_are_tunable_and_checked(tmp_path):
@@ -244,7 +247,9 @@ def _run_host(exe, fmu: Path, workdir: Path, law, xs) -> list:
     lib = workdir / "binaries" / "linux64" / f"{md.coSimulation.modelIdentifier}.so"
     text = "\n".join(" ".join(float.hex(v) if math.isfinite(v) else repr(v) for v in x)
                      for x in xs) + "\n"
-    res = subprocess.run([str(exe), str(lib), md.guid, ins, outs], input=text,
+    # the resources folder: an interpreter law FMU reads its law's start values there
+    res = subprocess.run([str(exe), str(lib), md.guid, ins, outs,
+                          (workdir / "resources").as_uri()], input=text,
                          capture_output=True, text=True, env=env, check=True)
     return [[float.fromhex(t) for t in line.split()] for line in res.stdout.splitlines()]
 
@@ -270,7 +275,8 @@ def test_sources_rebuild_the_fmu(reentry_export, tmp_path):
         z.extractall(work)
     md = read_model_description(str(fmu))
     sources = md.buildConfigurations[0].sourceFileSets[0].sourceFiles
-    assert set(sources) == {"fmi2_cs.c", "law_model.c", "law.c"}
+    # the interpreter's C (the law is its start values, in resources/start_values.txt)
+    assert set(sources) == {"fmi2_cs.c", "no_model.c", "no_interp.c"}
     lib = work / "binaries" / "linux64" / "ReentryLaw.so"
     lib.unlink()
     subprocess.run([find_compiler(), "-shared", "-fPIC", "-O2", "-I", str(work / "sources"),
@@ -286,6 +292,7 @@ def test_sources_rebuild_the_fmu(reentry_export, tmp_path):
     a = _run_host(exe, fmu, tmp_path / "a", law, xs)
     b = _run_host(exe, rebuilt, tmp_path / "b", law, xs)
     assert [[bits(v) for v in r] for r in a] == [[bits(v) for v in r] for r in b]
+    assert [bits(r[0]) for r in b] == [bits(law(x)[0]) for x in xs]     # the law, not another
 
 
 @pytest.mark.skipif(shutil.which("cmake") is None, reason="fmpy compile needs cmake")
@@ -318,3 +325,68 @@ def test_fmu_rejects_calls_out_of_order(tmp_path):
         assert "no Real variable has value reference 999" in log[-1]
     finally:
         fmu.freeInstance()
+
+
+# -- the interpreter law FMU (the law as start values, no compile) ---------------------------
+def test_interpreter_law_flies_as_the_compiled_one(reentry_export, fmu_dir, tmp_path):
+    # the S1 closed loop (Python master, pythonfmu plant) with the exported law FMU (the
+    # interpreter with the law's start values) and with the law FMU compiled from law.c: the
+    # same trajectory to the bit, every recorded signal at every step
+    law, files = reentry_export
+    problem = get_problem("reentry")
+    compiled = build_law_fmu(law, tmp_path / "Compiled.fmu", "Compiled")
+    runs = []
+    for ctrl in (files["controller_fmu"], compiled):
+        with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu", ctrl) as loop:
+            runs.append([loop.run(s, record=True) for s in problem.initial_states])
+    for a, b in zip(*runs):
+        assert a.final == b.final and np.array_equal(a.time, b.time)
+        assert a.outputs.keys() == b.outputs.keys()
+        for key in a.outputs:              # bitwise: the same doubles, NaN nowhere
+            assert a.outputs[key].tobytes() == b.outputs[key].tobytes(), key
+    assert len(runs[0][0].time) > 100 and any(k.startswith("ctrl.") for k in runs[0][0].outputs)
+
+
+@pytest.mark.parametrize("text", ["3 abc\n", "99999 1.0\n", "1 0.5\n"],
+                         ids=["no-number", "no-variable", "an-output"])
+def test_bad_start_values_resource_fails_instantiation(tmp_path, text):
+    # a malformed resources/start_values.txt (no value, no such variable, an output): the
+    # instantiation fails with one logged line naming the file and the line
+    law = NetworkOperator.load(REENTRY_LAW)
+    path = write_law_fmu(law, tmp_path / "Law.fmu", "Law")
+    md = read_model_description(str(path))
+    u1 = next(v.valueReference for v in md.modelVariables if v.name == "u[1]")
+    text = text.replace("1 0.5", f"{u1} 0.5")
+    bad = tmp_path / "Bad.fmu"
+    with zipfile.ZipFile(path) as src, zipfile.ZipFile(bad, "w") as dst:
+        for item in src.infolist():
+            data = src.read(item)
+            if item.filename == "resources/start_values.txt":
+                data = data + text.encode()
+            dst.writestr(item, data)
+    log = []
+    with pytest.raises(Exception):
+        load_slave(bad, "bad", log)
+    assert len(log) == 1 and "resources/start_values.txt line" in log[0], log
+
+
+def test_a_law_beyond_the_interpreter_is_compiled(tmp_path):
+    # 36 nodes (the interpreter holds 32): the export compiles the law's C instead, and that
+    # FMU gives the law's outputs bitwise (oracle: the law evaluated in Python)
+    L = 36
+    psi = np.zeros((L, L), dtype=int)
+    for j in range(3, L):
+        psi[j, j], psi[j - 1, j] = 1, 1          # a chain of sums: node j = node j-1
+    psi[0, 3], psi[2, 3] = 1, 2                  # node 4 = x1 + q1 ** 2 (rho 2: square)
+    law = NetworkOperator(psi, nx=2, q=[0.5], outputs=[L], bounds=[(-1.0, 1.0)])
+    files = export_law_files(law, tmp_path / "big", law_fmu="native", identifier="Big")
+    with zipfile.ZipFile(files["controller_fmu"]) as z:
+        assert "sources/law.c" in z.namelist()
+        assert "resources/start_values.txt" not in z.namelist()
+    xs = [[0.1, 0.2], [-0.3, 5.0], [1e300, -1.0], [0.0, -0.0]]
+    fmu = load_slave(files["controller_fmu"], "big")
+    try:
+        got = outputs_of(fmu, start(fmu, {}), law, xs)
+    finally:
+        fmu.freeInstance()
+    assert [bits(u[0]) for u in got] == [bits(law(x)[0]) for x in xs]

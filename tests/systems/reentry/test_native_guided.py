@@ -31,10 +31,10 @@ OUTPUTS = ("u[1]", "correction", "predicted_miss", "drag_factor_log", "drag_fact
 
 
 @pytest.fixture(scope="module")
-def guided_twin(tmp_path_factory):
-    from descent_fmus.synthesis.systems.reentry.native.controllers import build_guided_controller
-    return build_guided_controller(tmp_path_factory.mktemp("guided") /
-                                   "GuidedNetworkOperatorController.fmu")
+def guided_twin(native_twin):
+    """The native guided controller, built from this checkout's C once per session
+    (tests/conftest.py; its builder: build_guided_controller)."""
+    return native_twin("GuidedNetworkOperatorController")
 
 
 @pytest.fixture(scope="module")
@@ -62,15 +62,28 @@ def _states(problem) -> list:
     return states
 
 
-def test_guided_twin_flies_as_the_pythonfmu_controller(fmu_dir, guided_twin, problem):
+def _flights(fmu_dir, ctrl, problem) -> list:
+    """``[(values, state, flight)]``: the Python master flying the pythonfmu plant with the
+    controller FMU ``ctrl``, 6 settings x 4 samples, recorded (h, load and the connected
+    signals)."""
+    with ClosedLoop(problem.wiring, fmu_dir / "Reentry.fmu", ctrl, record=("h", "load")) as loop:
+        return [(v, s, loop.run(s, v, record=True)) for v in _law_values()
+                for s in _states(problem)]
+
+
+@pytest.fixture(scope="module")
+def pythonfmu_flights(fmu_dir, problem) -> list:
+    """:func:`_flights` of the pythonfmu guided controller, flown once for the two tests that
+    compare the twin with them."""
+    return _flights(fmu_dir, fmu_dir / "GuidedNetworkOperatorController.fmu", problem)
+
+
+def test_guided_twin_flies_as_the_pythonfmu_controller(fmu_dir, guided_twin, problem,
+                                                        pythonfmu_flights):
     # 6 settings x 4 samples, the Python master flying the plant with each controller: every
     # final plant output and the control at every communication point equal
-    plant = fmu_dir / "Reentry.fmu"
-    runs = []
-    for ctrl in (fmu_dir / "GuidedNetworkOperatorController.fmu", guided_twin):
-        with ClosedLoop(problem.wiring, plant, ctrl, record=("h", "load")) as loop:
-            runs.append([loop.run(s, v, record=True) for v in _law_values()
-                         for s in _states(problem)])
+    runs = [[f for _, _, f in pythonfmu_flights],
+            [f for _, _, f in _flights(fmu_dir, guided_twin, problem)]]
     for want, got in zip(*runs):
         assert got.final == want.final
         for name in ("ctrl.u[1]", "h", "load"):
@@ -78,35 +91,31 @@ def test_guided_twin_flies_as_the_pythonfmu_controller(fmu_dir, guided_twin, pro
     assert {r.final["status"] for r in runs[0]} == {1}
 
 
-def test_guided_twin_outputs_at_every_step(fmu_dir, guided_twin, problem):
-    # the controllers alone fed the same recorded flights (6 settings x 4 samples): u, the
-    # correction c, the predicted miss, y3, the factor, the scale-height error and the fit's
-    # standard deviation, and the number of predictions, equal at every communication point
-    plant = fmu_dir / "Reentry.fmu"
+def test_guided_twin_outputs_at_every_step(fmu_dir, guided_twin, pythonfmu_flights):
+    # the controllers alone fed the same recorded flights (6 settings x 4 samples, flown with
+    # the pythonfmu controller): u, the correction c, the predicted miss, y3, the factor, the
+    # scale-height error and the fit's standard deviation, and the number of predictions,
+    # equal at every communication point
     made = []
     try:
         for k, path in enumerate((fmu_dir / "GuidedNetworkOperatorController.fmu",
                                   guided_twin)):
             made.append(load_slave(path, f"g{k}", []))
         corrected = 0
-        with ClosedLoop(problem.wiring, plant,
-                        fmu_dir / "GuidedNetworkOperatorController.fmu") as loop:
-            for values in _law_values():
-                for s in _states(problem):
-                    flight = loop.run(s, values, record=True)
-                    seqs = []
-                    for fmu in made:
-                        vr = start(fmu, values)
-                        seq = []
-                        for i in range(len(flight.time)):
-                            fmu.setReal([vr[n] for n in INPUTS],
-                                        [float(flight[v][i]) for v in INPUTS.values()])
-                            seq.append([bits(v) for v in fmu.getReal([vr[n] for n in OUTPUTS])]
-                                       + fmu.getInteger([vr["predictions"]]))
-                            fmu.doStep(float(flight.time[i]), 1.0)
-                        seqs.append(seq)
-                    assert seqs[0] == seqs[1], (values, s)
-                    corrected += seqs[0][-1][-1] > 0
+        for values, s, flight in pythonfmu_flights:
+            seqs = []
+            for fmu in made:
+                vr = start(fmu, values)
+                seq = []
+                for i in range(len(flight.time)):
+                    fmu.setReal([vr[n] for n in INPUTS],
+                                [float(flight[v][i]) for v in INPUTS.values()])
+                    seq.append([bits(v) for v in fmu.getReal([vr[n] for n in OUTPUTS])]
+                               + fmu.getInteger([vr["predictions"]]))
+                    fmu.doStep(float(flight.time[i]), 1.0)
+                seqs.append(seq)
+            assert seqs[0] == seqs[1], (values, s)
+            corrected += seqs[0][-1][-1] > 0
         assert corrected >= 16                   # predictions were made (not all idle)
     finally:
         for fmu in made:
@@ -172,9 +181,10 @@ def test_guided_twin_names_errors_as_the_python_controller(fmu_dir, guided_twin)
 
 # -- the NPC baseline (ReentryNPC) ------------------------------------------------------------
 @pytest.fixture(scope="module")
-def npc_twin(tmp_path_factory):
-    from descent_fmus.synthesis.systems.reentry.native.controllers import build_npc_controller
-    return build_npc_controller(tmp_path_factory.mktemp("npc") / "ReentryNPC.fmu")
+def npc_twin(native_twin):
+    """The native NPC controller, built once per session (tests/conftest.py; its builder:
+    build_npc_controller)."""
+    return native_twin("ReentryNPC")
 
 
 def test_npc_twin_flies_as_the_pythonfmu_controller(fmu_dir, npc_twin, problem):

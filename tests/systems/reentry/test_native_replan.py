@@ -105,10 +105,10 @@ def test_onboard_lp_refuses_malformed_programmes(kw, match):
 
 
 @pytest.fixture(scope="module")
-def guided_twin(tmp_path_factory):
-    from descent_fmus.synthesis.systems.reentry.native.controllers import build_guided_controller
-    return build_guided_controller(tmp_path_factory.mktemp("replan") /
-                                   "GuidedNetworkOperatorController.fmu")
+def guided_twin(native_twin):
+    """The native guided controller, built from this checkout's C once per session
+    (tests/conftest.py; its builder: build_guided_controller)."""
+    return native_twin("GuidedNetworkOperatorController")
 
 
 def _samples(n: int):
@@ -131,29 +131,42 @@ def _fly_both(fmu_dir, twin, settings, samples):
     return runs
 
 
-def test_replan_twin_without_lp_steps_flies_bit_for_bit(fmu_dir, guided_twin):
+#: the settings without an LP step the two tests below fly (the first: the plain re-planner)
+NO_LP = [{"replan_iterations": 0},
+         {"replan_iterations": 0, "correction_gate": 20.0, "noise": 0.05, "noise_seed": 3}]
+
+
+@pytest.fixture(scope="module")
+def no_lp_flights(fmu_dir, guided_twin):
+    """``(pythonfmu flights, twin flights)`` of :data:`NO_LP` x 4 samples, flown once for the
+    two tests below (the first flight: NO_LP[0] from the first sample)."""
+    return _fly_both(fmu_dir, guided_twin, NO_LP, _samples(4))
+
+
+def test_replan_twin_without_lp_steps_flies_bit_for_bit(no_lp_flights):
     # the plan's predictions, recorded loads, running peak, plan values and Brent's offset are
     # the Python's operation for operation: with no LP step every number is equal
-    settings = [{"replan_iterations": 0},
-                {"replan_iterations": 0, "correction_gate": 20.0, "noise": 0.05,
-                 "noise_seed": 3}]
-    py, c = _fly_both(fmu_dir, guided_twin, settings, _samples(4))
+    py, c = no_lp_flights
     for want, got in zip(py, c):
         assert got.final == want.final
         for name in ("ctrl.u[1]", "load"):
             assert [bits(v) for v in got[name]] == [bits(v) for v in want[name]], name
 
 
-def test_replan_twin_outputs_without_lp_steps_at_every_step(fmu_dir, guided_twin):
-    # the controllers alone fed one recorded flight: the plan's correction, its predicted miss
-    # and the predictions made, equal at every communication point
+def test_replan_twin_outputs_without_lp_steps_at_every_step(fmu_dir, guided_twin,
+                                                            no_lp_flights):
+    # the controllers alone fed one recorded flight (the pythonfmu re-planner's): the plan's
+    # correction, its predicted miss and the predictions made, equal at every communication
+    # point
     from descent_fmus.synthesis.fmi.slave import load_slave
     from test_native_guided import INPUTS
     from fmi_calls import start
     (p, h0) = _samples(4)[0]                               # one the plan lands
     values = dict(NetworkOperator.load(GUIDED_LAW).start_values(), replan=1,
                   replan_iterations=0, h0_line=h0)
-    flight = _fly_both(fmu_dir, guided_twin, [{"replan_iterations": 0}], [(p, h0)])[0][0]
+    assert NO_LP[0] == {"replan_iterations": 0}
+    flight = no_lp_flights[0][0]                           # NO_LP[0] from (p, h0)
+    assert flight.start == p
     names = ("u[1]", "correction", "predicted_miss", "drag_factor_log")
     seqs = []
     for k, path in enumerate((fmu_dir / "GuidedNetworkOperatorController.fmu", guided_twin)):

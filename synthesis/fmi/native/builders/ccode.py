@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import ast
 import re
+from functools import lru_cache
 
 from descent_fmus.models.controllers.law_interpreter import MatrixError
 from descent_fmus.models.controllers.operation_table import (BINARY_OPS, CONSTANTS, FUNCTIONS,
@@ -100,9 +101,10 @@ def render(expr: str, operands=("z",)) -> str:
     return r(tree.body)
 
 
-def _calls(expr: str) -> set:
-    return {n.func.id for n in ast.walk(ast.parse(expr, mode="eval"))
-            if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)}
+@lru_cache(maxsize=None)
+def _calls(expr: str) -> frozenset:
+    return frozenset({n.func.id for n in ast.walk(ast.parse(expr, mode="eval"))
+            if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)})
 
 
 def _helper_closure(exprs) -> list:
@@ -127,8 +129,14 @@ def operations_c(unary=(), binary=(), helpers=("finite", "clip", "scale")) -> st
     """C definitions (static functions) of the given operations and of what they need.
 
     Unary operation k becomes ``rho<k>(z)``, binary operation k ``chi<k>(a, b)``, a helper
-    ``no_<name>(...)``; the named constants become ``NO_<NAME>`` macros.
+    ``no_<name>(...)``; the named constants become ``NO_<NAME>`` macros.  Made once per set of
+    operations in a process (every Pareto law's ``law.c`` asks for a few such sets).
     """
+    return _operations_c(tuple(sorted(set(unary))), tuple(sorted(set(binary))), tuple(helpers))
+
+
+@lru_cache(maxsize=256)
+def _operations_c(unary: tuple, binary: tuple, helpers: tuple) -> str:
     ops = []
     for k in sorted(set(unary)):
         if not (0 < k < len(UNARY_OPS)):

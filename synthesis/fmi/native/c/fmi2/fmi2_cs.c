@@ -13,6 +13,13 @@
  * an invalid parameter at exitInitializationMode) return fmi2Error and are logged through the
  * host's logger with category logStatusError; the instance stays usable after fmi2Reset.
  *
+ * Start values: those compiled into the model (MODEL_*_START), unless the FMU's resources hold
+ * start_values.txt -- lines "<value reference> <value> [name]", every other line ignored --
+ * whose values replace them for every instance (instantiation and fmi2Reset).  So one compiled
+ * model (the network-operator interpreter) ships as many FMUs as there are laws, each with its
+ * law's start values in modelDescription.xml and in that file (synthesis/fmi/native/builders/
+ * law_fmu.py writes both); a malformed file fails the instantiation with a logged message.
+ *
  * A stateful model (native_model.h, optional hooks) gets its own zeroed memory per instance and
  * is told when its start values are set (instantiation, reset), when its parameters passed the
  * check (entering and leaving initialisation, as the pythonfmu slaves prepare) and when it
@@ -74,6 +81,8 @@ typedef struct {
     double sample_t;                /* time of the last sample [s] */
     int logging;
     char *name;
+    double *r_start;                /* the start values (compiled, or from the resources) */
+    int *i_start;
     fmi2CallbackLogger logger;
     fmi2ComponentEnvironment env;
 } Instance;
@@ -99,9 +108,9 @@ static void log_error(Instance *c, const char *fmt, ...)
 
 static void set_starts(Instance *c)
 {
-    memcpy(c->s.r, MODEL_REAL_START, sizeof(double) * (size_t)MODEL_N_REAL);
+    memcpy(c->s.r, c->r_start, sizeof(double) * (size_t)MODEL_N_REAL);
     if (MODEL_N_INTEGER > 0)
-        memcpy(c->s.i, MODEL_INTEGER_START, sizeof(int) * (size_t)MODEL_N_INTEGER);
+        memcpy(c->s.i, c->i_start, sizeof(int) * (size_t)MODEL_N_INTEGER);
     if (c->s.data != NULL)
         memset(c->s.data, 0, model_data_size());
     c->s.time = 0.0;
@@ -110,6 +119,81 @@ static void set_starts(Instance *c)
     c->sampling = c->holding = c->sampled_once = 0;
     c->sample_t = 0.0;
     model_reset(&c->s);
+}
+
+/* the file <resources>/<name> of the resource location (a file URI: file:///dir, file:/dir,
+   %XX escapes) in path (size bytes); 0 if the location is no usable file URI */
+static int resource_path(const char *location, const char *name, char *path, size_t size)
+{
+    const char *p;
+    size_t n = 0;
+    if (location == NULL || strncmp(location, "file:", 5) != 0)
+        return 0;
+    p = location + 5;
+    if (strncmp(p, "///", 3) == 0)
+        p += 2;
+    else if (strncmp(p, "//localhost/", 12) == 0)
+        p += 11;
+#if defined(_WIN32)
+    if (p[0] == '/' && p[1] != '\0' && p[2] == ':')
+        p++;                                    /* /C:/dir -> C:/dir */
+#endif
+    for (; *p && n + 1 < size; p++) {
+        unsigned int byte;
+        if (p[0] == '%' && p[1] && p[2] && sscanf(p + 1, "%2x", &byte) == 1) {
+            path[n++] = (char)byte;
+            p += 2;
+        } else
+            path[n++] = *p;
+    }
+    if (n > 0 && path[n - 1] != '/')
+        path[n++] = '/';
+    if (n + strlen(name) + 1 > size)
+        return 0;
+    strcpy(path + n, name);
+    return 1;
+}
+
+/* the start values of c: the compiled ones, replaced by those of <resources>/start_values.txt
+   if the FMU has that file; 0 and a logged message if the file is malformed */
+static int load_starts(Instance *c, const char *location)
+{
+    char path[4096], line[512];
+    FILE *f;
+    int row = 0, ok = 1;
+    memcpy(c->r_start, MODEL_REAL_START, sizeof(double) * (size_t)MODEL_N_REAL);
+    if (MODEL_N_INTEGER > 0)
+        memcpy(c->i_start, MODEL_INTEGER_START, sizeof(int) * (size_t)MODEL_N_INTEGER);
+    if (!resource_path(location, "start_values.txt", path, sizeof path)
+        || (f = fopen(path, "r")) == NULL)
+        return 1;
+    while (ok && fgets(line, sizeof line, f) != NULL) {
+        char *end, *p = line;
+        unsigned long vr;
+        row++;
+        while (*p == ' ' || *p == '\t')
+            p++;
+        if (*p < '0' || *p > '9')
+            continue;                           /* a comment or an empty line */
+        vr = strtoul(p, &end, 10);
+        if (vr < (unsigned long)MODEL_N_REAL) {
+            double v = strtod(end, &p);
+            ok = p != end;
+            c->r_start[vr] = v;
+        } else if (vr < (unsigned long)(MODEL_N_REAL + MODEL_N_INTEGER)) {
+            long v = strtol(end, &p, 10);
+            ok = p != end;
+            c->i_start[vr - (unsigned long)MODEL_N_REAL] = (int)v;
+        } else
+            ok = 0;
+        if (ok && vr < (unsigned long)MODEL_N_REAL && MODEL_REAL_KIND[vr] == KIND_OUTPUT)
+            ok = 0;                             /* outputs have no start value */
+    }
+    fclose(f);
+    if (!ok)
+        log_error(c, "resources/start_values.txt line %d: need \"<value reference> <value>\" "
+                  "of a parameter or input", row);
+    return ok;
 }
 
 /* -- common functions ------------------------------------------------------------------- */
@@ -134,7 +218,6 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                               fmi2Boolean loggingOn)
 {
     Instance tmp, *c;
-    (void)resourceLocation;
     (void)visible;
     memset(&tmp, 0, sizeof tmp);
     tmp.name = (char *)(instanceName ? instanceName : "");
@@ -159,16 +242,16 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     c->s.r = (double *)calloc((size_t)MODEL_N_REAL + 1, sizeof(double));
     c->s.i = (int *)calloc((size_t)MODEL_N_INTEGER + 1, sizeof(int));
     c->s.data = model_data_size() > 0 ? calloc(1, model_data_size()) : NULL;
-    if (c->name == NULL || c->s.r == NULL || c->s.i == NULL
-        || (model_data_size() > 0 && c->s.data == NULL)) {
-        free(c->name);
-        free(c->s.r);
-        free(c->s.i);
-        free(c->s.data);
-        free(c);
+    c->r_start = (double *)calloc((size_t)MODEL_N_REAL + 1, sizeof(double));
+    c->i_start = (int *)calloc((size_t)MODEL_N_INTEGER + 1, sizeof(int));
+    if (c->name != NULL)
+        strcpy(c->name, tmp.name);
+    if (c->name == NULL || c->s.r == NULL || c->s.i == NULL || c->r_start == NULL
+        || c->i_start == NULL || (model_data_size() > 0 && c->s.data == NULL)
+        || !load_starts(c, resourceLocation)) {
+        fmi2FreeInstance(c);
         return NULL;
     }
-    strcpy(c->name, tmp.name);
     c->logging = loggingOn;
     c->mode = ST_INSTANTIATED;
     set_starts(c);
@@ -183,6 +266,8 @@ void fmi2FreeInstance(fmi2Component comp)
     free(c->s.r);
     free(c->s.i);
     free(c->s.data);
+    free(c->r_start);
+    free(c->i_start);
     free(c->name);
     free(c);
 }
