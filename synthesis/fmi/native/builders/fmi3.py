@@ -71,23 +71,32 @@ def fmi3_variant(src, dest, compiler: str | None = None) -> Path:
         files = {n[len("sources/"):]: z.read(n) for n in names
                  if n.startswith("sources/") and not n.endswith("/")
                  and n[len("sources/"):] not in WRAPPER_FILES}
+        resources = {n: z.read(n) for n in names
+                     if n.startswith("resources/") and not n.endswith("/")}
     cs = md.find("CoSimulation")
     model_c = [f.get("name") for f in cs.iter("File") if f.get("name") != "fmi2_cs.c"]
     exp = md.find("DefaultExperiment")
     experiment = {k: float(v) for k, v in exp.attrib.items()} if exp is not None else None
-    return write_native_fmu(dest, cs.get("modelIdentifier"), md.get("guid"),
-                            md.get("description", ""), variables_of(md), files, [], model_c,
-                            experiment, compiler, fmi_version=3)
+    out = write_native_fmu(dest, cs.get("modelIdentifier"), md.get("guid"),
+                           md.get("description", ""), variables_of(md), files, [], model_c,
+                           experiment, compiler, fmi_version=3)
+    if resources:                       # a law's start values (resources/start_values.txt)
+        with zipfile.ZipFile(out, "a", zipfile.ZIP_DEFLATED) as z:
+            for name, data in sorted(resources.items()):
+                z.writestr(name, data)
+    return out
 
 
 def is_native(fmu) -> bool:
     """Whether ``fmu`` is a native FMI 2.0 FMU of this package: its sources are the FMI 2.0
     wrapper's and a model's (an FMI 3.0 variant ships ``fmi2_cs.c`` too), and it carries no
-    resources (a closed loop carries its components: it stays FMI 2.0)."""
+    components in its resources (a closed loop: it stays FMI 2.0); a law's start values in
+    ``resources/start_values.txt`` are carried over to the variant."""
     with zipfile.ZipFile(fmu) as z:
         names = z.namelist()
     return ("sources/fmi2_cs.c" in names and "sources/fmi3_cs.c" not in names
-            and not any(n.startswith("resources/") for n in names))
+            and not any(n.startswith("resources/") and n != "resources/start_values.txt"
+                        for n in names))
 
 
 def build_fmi3_variants(fmus, out_dir, compiler: str | None = None, say=print) -> list:

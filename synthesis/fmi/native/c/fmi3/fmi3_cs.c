@@ -97,6 +97,32 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
 }
 
 /* -- creation and destruction ------------------------------------------------------------- */
+/* FMI 3.0 passes the resources as a path, FMI 2.0 as a file URI: the URI of path ('%' escaped,
+   as fmi2_cs.c decodes %XX), malloc'd; NULL for no path */
+static char *resource_uri(const char *path)
+{
+    size_t n = 0;
+    char *uri, *q;
+    const char *p;
+    if (path == NULL)
+        return NULL;
+    for (p = path; *p; p++)
+        n += (*p == '%') ? 3 : 1;
+    uri = (char *)malloc(n + 9);
+    if (uri == NULL)
+        return NULL;
+    strcpy(uri, path[0] == '/' ? "file://" : "file:///");
+    for (q = uri + strlen(uri), p = path; *p; p++) {
+        if (*p == '%') {
+            strcpy(q, "%25");
+            q += 3;
+        } else
+            *q++ = *p;
+    }
+    *q = '\0';
+    return uri;
+}
+
 fmi3Instance fmi3InstantiateCoSimulation(
     fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
     fmi3Boolean visible, fmi3Boolean loggingOn, fmi3Boolean eventModeUsed,
@@ -106,6 +132,7 @@ fmi3Instance fmi3InstantiateCoSimulation(
 {
     Adapter *a = (Adapter *)calloc(1, sizeof(Adapter));
     fmi2CallbackFunctions callbacks = {relay, calloc, free, NULL, NULL};
+    char *uri;
     (void)earlyReturnAllowed;       /* a step always ends where it was asked to */
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
@@ -115,8 +142,10 @@ fmi3Instance fmi3InstantiateCoSimulation(
     a->env = instanceEnvironment;
     a->log = logMessage;
     callbacks.componentEnvironment = a;
-    a->inner = fmi2Instantiate(instanceName, fmi2CoSimulation, instantiationToken, resourcePath,
+    uri = resource_uri(resourcePath);
+    a->inner = fmi2Instantiate(instanceName, fmi2CoSimulation, instantiationToken, uri,
                                &callbacks, visible, loggingOn);
+    free(uri);
     if (a->inner != NULL && eventModeUsed) {
         log_error((Instance *)a->inner, "event mode is not supported by this FMU "
                   "(hasEventMode=\"false\")");
