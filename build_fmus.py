@@ -8,7 +8,7 @@ system's pythonfmu FMU classes, then its closed loops as fmpy container FMUs (``
 runs them directly) with an SSP file beside each, then the native (C) plants and controller
 twins the systems name into ``native/`` and the closed loops whose plant and controller both have
 twins there (skipped, with one line, where no C compiler exists), and the FMI 3.0 variants of the
-native plants and controllers into ``native/fmi3/``.
+native plants, controllers and closed loops into ``native/fmi3/``.
 """
 from __future__ import annotations
 
@@ -69,7 +69,8 @@ def main(argv=None) -> int:
             print(f"built {fmu.name} and {ssp.name}")
     # the native plants (C generated from models/) and controller twins the systems name, and
     # the closed loops whose twins are all built; then the FMI 3.0 variants of the native plants
-    # and controllers, which reuse their FMI 2.0 twins' compiled model (reusing_objects)
+    # and controllers, which reuse their FMI 2.0 twins' compiled model (reusing_objects), and of
+    # the native closed loops (the engine's FMI 3.0 binary, their FMI 2.0 components)
     with reusing_objects():
         native = build_native_plants(out / "native", native_plants(systems))
         native += build_native_fmus(out / "native", native_controllers(systems),
