@@ -31,6 +31,7 @@ def main(argv=None) -> int:
         from descent_fmus.synthesis.fmi.compose import build_slave, with_defaults
         from descent_fmus.synthesis.fmi.native.builders.build import reusing_objects
         from descent_fmus.synthesis.fmi.native.builders.closed_loops import build_native_fmus
+        from descent_fmus.synthesis.fmi.loop_fmi3 import build_loop_variants
         from descent_fmus.synthesis.fmi.native.builders.fmi3 import build_fmi3_variants
         from descent_fmus.synthesis.fmi.native.builders.plant_fmu import build_native_plants
         from descent_fmus.synthesis.registry import (SYSTEMS, get_system, native_controllers,
@@ -76,6 +77,7 @@ def main(argv=None) -> int:
         native += build_native_fmus(out / "native", native_controllers(systems),
                                     [s for sy in systems for s in sy.closed_loops])
         built += native + build_fmi3_variants(native, out / "native" / "fmi3")
+        built += build_loop_variants(native, out / "native" / "fmi3")
     if args.validate:
         from fmpy.validation import validate_fmu
         bad = 0

@@ -24,9 +24,9 @@ from descent_fmus.synthesis.cli.main import main
 from descent_fmus.synthesis.fmi.containers import closed_loop_fmu
 from descent_fmus.synthesis.fmi.native.builders.build import (find_compiler, platform_folder,
                                                               platform_tuple)
-from descent_fmus.synthesis.fmi.native.builders.fmi3 import (NotNativeError,
-                                                              build_fmi3_variants,
-                                                              fmi3_variant, is_closed_loop)
+from descent_fmus.synthesis.fmi.loop_fmi3 import (any_fmi3_variant, build_loop_variants,
+                                                  is_closed_loop, loop_variant)
+from descent_fmus.synthesis.fmi.native.builders.fmi3 import NotNativeError, fmi3_variant
 from descent_fmus.synthesis.registry import closed_loop_specs
 from test_native_fmi3 import _fmpy_cli, _Host, _simulate
 
@@ -42,7 +42,7 @@ def loops(fmu_dir, tmp_path_factory) -> dict:
     fmi3 = native / "fmi3"
     if not all((fmi3 / p.name).is_file() for p in fmi2):
         fmi3 = tmp_path_factory.mktemp("fmi3_loops")
-        build_fmi3_variants(fmi2, fmi3, say=lambda line: None)
+        build_loop_variants(fmi2, fmi3, say=lambda line: None)
     return {p.stem: (p, fmi3 / p.name) for p in fmi2}
 
 
@@ -180,7 +180,11 @@ def test_fmi3_variant_command_on_a_closed_loop(loops, fmu_dir, tmp_path, capsys)
     container = closed_loop_fmu(w, native / f"{w.plant}.fmu", ctrl, tmp_path / "Old.fmu",
                                 parameters=spec.parameters, engine=False)
     with pytest.raises(NotNativeError, match="nor a closed loop of its engine"):
-        fmi3_variant(container, tmp_path / "again.fmu")
+        any_fmi3_variant(container, tmp_path / "again.fmu")
+    with pytest.raises(NotNativeError, match="is not a closed loop of the descent-fmus engine"):
+        loop_variant(container, tmp_path / "again.fmu")
+    with pytest.raises(NotNativeError, match="is not a native FMI 2.0 FMU of descent-fmus"):
+        fmi3_variant(fmu2, tmp_path / "again.fmu")        # the native FMUs' function
     assert main(["fmi3-variant", str(container), "--out", str(tmp_path / "c.fmu")]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "nor a closed loop of its engine" in err
