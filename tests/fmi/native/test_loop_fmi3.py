@@ -173,6 +173,14 @@ def test_fmi3_variant_command_on_a_closed_loop(loops, fmu_dir, tmp_path, capsys)
     assert main(["fmi3-variant", str(fmu2), "--out", str(out), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["out"] == str(out)
     assert _simulate(out, output_interval=0.25) == _simulate(fmu2, output_interval=0.25)
+    # a pythonfmu closed loop runs on the same engine: its variant too
+    py2 = fmu_dir / "ReentryClosedLoop.fmu"
+    if is_closed_loop(py2):
+        assert main(["fmi3-variant", str(py2), "--out", str(tmp_path / "Py3.fmu")]) == 0
+        capsys.readouterr()
+        a, b = _simulate(py2, output_interval=1.0), _simulate(tmp_path / "Py3.fmu",
+                                                              output_interval=1.0)
+        assert isinstance(a, dict) and a == b
     spec = next(s for s in closed_loop_specs() if s.wiring.name == "TelescopeClosedLoop")
     native, w = fmu_dir / "native", spec.wiring
     ctrl = native / (f"{w.name}Controller.fmu" if spec.controller_defaults is not None
