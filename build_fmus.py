@@ -8,7 +8,7 @@ system's pythonfmu FMU classes, then its closed loops as fmpy container FMUs (``
 runs them directly) with an SSP file beside each, then the native (C) plants and controller
 twins the systems name into ``native/`` and the closed loops whose plant and controller both have
 twins there (skipped, with one line, where no C compiler exists), and the FMI 3.0 variants of the
-native plants and controllers into ``native/fmi3/``.
+native plants, controllers and closed loops into ``native/fmi3/``.
 """
 from __future__ import annotations
 
@@ -31,6 +31,7 @@ def main(argv=None) -> int:
         from descent_fmus.synthesis.fmi.compose import build_slave, with_defaults
         from descent_fmus.synthesis.fmi.native.builders.build import reusing_objects
         from descent_fmus.synthesis.fmi.native.builders.closed_loops import build_native_fmus
+        from descent_fmus.synthesis.fmi.loop_fmi3 import build_loop_variants
         from descent_fmus.synthesis.fmi.native.builders.fmi3 import build_fmi3_variants
         from descent_fmus.synthesis.fmi.native.builders.plant_fmu import build_native_plants
         from descent_fmus.synthesis.registry import (SYSTEMS, get_system, native_controllers,
@@ -69,12 +70,14 @@ def main(argv=None) -> int:
             print(f"built {fmu.name} and {ssp.name}")
     # the native plants (C generated from models/) and controller twins the systems name, and
     # the closed loops whose twins are all built; then the FMI 3.0 variants of the native plants
-    # and controllers, which reuse their FMI 2.0 twins' compiled model (reusing_objects)
+    # and controllers, which reuse their FMI 2.0 twins' compiled model (reusing_objects), and of
+    # the native closed loops (the engine's FMI 3.0 binary, their FMI 2.0 components)
     with reusing_objects():
         native = build_native_plants(out / "native", native_plants(systems))
         native += build_native_fmus(out / "native", native_controllers(systems),
                                     [s for sy in systems for s in sy.closed_loops])
         built += native + build_fmi3_variants(native, out / "native" / "fmi3")
+        built += build_loop_variants(native, out / "native" / "fmi3")
     if args.validate:
         from fmpy.validation import validate_fmu
         bad = 0

@@ -25,7 +25,7 @@ from descent_fmus.synthesis.fmi.closed_loop import Wiring
 from descent_fmus.synthesis.fmi.compose import add_units, rewrite_archive
 from descent_fmus.synthesis.paths import require_fmu
 
-__all__ = ["closed_loop_fmu", "into_engine", "write_ssp"]
+__all__ = ["closed_loop_fmu", "into_engine", "engine_library", "write_ssp"]
 
 
 def closed_loop_fmu(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path,
@@ -193,20 +193,39 @@ def _create_container(config, parts: _Components, name: str, dest: Path,
     return dest
 
 
+def engine_library(fmi_version: int = 2, compiler: str | None = None) -> Path:
+    """The closed-loop engine (``synthesis/fmi/native/c/loop/``) compiled for this machine, once
+    (:func:`.build.cached_library`): its FMI 2.0 face, or with ``fmi_version=3`` the same
+    sources under the FMI 3.0 wrapper (``c/fmi3/fmi3_loop.c``: ``fmi3_cs.c`` compiled over the
+    engine, as over ``fmi2_cs.c`` for a native FMU).
+
+    Raises
+    ------
+    CompilerNotFoundError, NativeBuildError
+    """
+    from descent_fmus.synthesis.fmi.native.builders.build import C_ROOT, cached_library
+    loop = C_ROOT / "loop"
+    files = (loop / "closed_loop.c", loop / "loop_values.c")
+    headers = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h", loop / "loop.h")
+    if fmi_version == 3:          # fmi3_loop.c includes the engine's files: they are headers
+        files, headers = ("fmi3_loop.c",), headers + files + (
+            "fmi3_cs.c", "fmi3Functions.h", "fmi3FunctionTypes.h", "fmi3PlatformTypes.h")
+    elif fmi_version != 2:
+        raise ValueError(f"fmi_version must be 2 or 3, got {fmi_version!r}")
+    return cached_library("closed-loop" if fmi_version == 2 else "closed-loop-fmi3", files,
+                          headers, compiler, libraries=("m", "dl"))
+
+
 @functools.cache
 def _engine_library() -> bytes | None:
-    """The closed-loop engine (``synthesis/fmi/native/c/loop/``) compiled for this
-    machine (once per process), or None where it cannot be (no C compiler, not linux64)."""
-    from descent_fmus.synthesis.fmi.native.builders.build import (C_ROOT, NativeBuildError,
-                                                                  cached_library, find_compiler,
-                                                                  platform_folder)
+    """The engine's FMI 2.0 library (:func:`engine_library`), once per process, or None where
+    it cannot be built (no C compiler, not linux64)."""
+    from descent_fmus.synthesis.fmi.native.builders.build import (NativeBuildError,
+                                                                  find_compiler, platform_folder)
     if platform_folder() != ("linux64", ".so") or find_compiler() is None:
         return None
-    loop = C_ROOT / "loop"
-    headers = ("fmi2Functions.h", "fmi2FunctionTypes.h", "fmi2TypesPlatform.h", loop / "loop.h")
     try:
-        return cached_library("closed-loop", [loop / "closed_loop.c", loop / "loop_values.c"],
-                              headers, libraries=("m", "dl")).read_bytes()
+        return engine_library().read_bytes()
     except NativeBuildError:
         return None
 

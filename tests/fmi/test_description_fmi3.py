@@ -49,6 +49,23 @@ def test_a_variable_named_time_is_refused():
         model_description("M", "{t}", "", [Row("time", 0, "input", "continuous", "Real", 0.0)])
 
 
+def test_time_where_the_caller_puts_it(tmp_path):
+    # a closed loop's time keeps its FMI 2.0 value reference 0, and its model name is not the
+    # engine's identifier; a value reference of a variable is refused for time
+    rows = [Row(r.name, r.value_reference + 1, r.causality, r.variability, r.type, r.start,
+                r.description) for r in ROWS]
+    (tmp_path / "modelDescription.xml").write_bytes(
+        model_description("closed_loop", "{t}", "", rows, None, "", time_vr=0,
+                          model_name="Loop"))
+    assert validate_fmu(str(tmp_path)) == []
+    md = read_model_description(str(tmp_path))
+    assert md.modelName == "Loop" and md.coSimulation.modelIdentifier == "closed_loop"
+    assert {v.name: v.valueReference for v in md.modelVariables} == {
+        "time": 0, **{r.name: r.value_reference for r in rows}}
+    with pytest.raises(ValueError, match="value reference 3 of 'time' is a variable's"):
+        model_description("M", "{t}", "", rows, time_vr=3)
+
+
 def test_build_description_lists_the_sources():
     text = build_description("M", ["fmi3_cs.c", "model.c"]).decode()
     assert '<BuildConfiguration modelIdentifier="M">' in text

@@ -5,7 +5,8 @@ The same variable table as the FMI 2.0 description (the builder's ``Variable`` l
 ``Float64``, Integer -> ``Int32``, Boolean -> ``Boolean``; the GUID as ``instantiationToken``;
 ``<Output>`` and ``<InitialUnknown>`` by value reference; the unit of every Float64 from its
 description's bracket (:mod:`.units`, as for FMI 2.0); and the independent variable ``time``
-that FMI 3.0 requires, after every model variable.
+that FMI 3.0 requires, after every model variable (or where the FMI 2.0 FMU has its own: a
+closed loop's, value reference 0).
 """
 from __future__ import annotations
 
@@ -64,15 +65,21 @@ def _variable(parent: ET.Element, row: Row) -> set:
 
 
 def model_description(identifier: str, token: str, description: str, rows,
-                      experiment: dict | None = None, generation_tool: str = "") -> bytes:
+                      experiment: dict | None = None, generation_tool: str = "",
+                      time_vr: int | None = None, model_name: str | None = None) -> bytes:
     """``modelDescription.xml`` (FMI 3.0, co-simulation) of ``rows`` (value references unique;
-    ``time`` gets the next one)."""
+    ``time`` gets ``time_vr``, by default the one after every row's); the model's name is
+    ``model_name``, by default its identifier."""
     rows = list(rows)
     if any(r.name == TIME[0] for r in rows):
         raise ValueError(f"a variable is named {TIME[0]!r}: FMI 3.0 gives that name to the "
                          f"independent variable")
+    if time_vr is None:
+        time_vr = max((r.value_reference for r in rows), default=-1) + 1
+    elif any(r.value_reference == time_vr for r in rows):
+        raise ValueError(f"value reference {time_vr} of {TIME[0]!r} is a variable's")
     root = ET.Element("fmiModelDescription", {
-        "fmiVersion": "3.0", "modelName": identifier, "instantiationToken": token,
+        "fmiVersion": "3.0", "modelName": model_name or identifier, "instantiationToken": token,
         "description": description, "generationTool": generation_tool,
         "variableNamingConvention": "structured"})
     ET.SubElement(root, "CoSimulation", {
@@ -91,7 +98,6 @@ def model_description(identifier: str, token: str, description: str, rows,
         ET.SubElement(root, "DefaultExperiment",
                       {k: repr(float(v)) for k, v in experiment.items()})
     variables = ET.SubElement(root, "ModelVariables")
-    time_vr = max((r.value_reference for r in rows), default=-1) + 1
     units = _variable(variables, Row(TIME[0], time_vr, "independent", "continuous", "Real",
                                      None, TIME[1]))
     for row in rows:

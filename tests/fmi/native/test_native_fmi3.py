@@ -45,7 +45,8 @@ REENTRY_LAW = Path(__file__).resolve().parents[2] / "reference" / "reentry_five_
 @pytest.fixture(scope="module")
 def pairs(fmu_dir, tmp_path_factory) -> dict:
     """name -> (FMI 2.0 native FMU, its FMI 3.0 variant), for every native FMU but the closed
-    loops: the variants build_fmus.py wrote, or (an older build without them) made here."""
+    loops (test_loop_fmi3.py): the variants build_fmus.py wrote, or (an older build without
+    them) made here."""
     native = fmu_dir / "native"
     fmi2 = [p for p in sorted(native.glob("*.fmu")) if is_native(p)]
     fmi3 = native / "fmi3"
@@ -56,8 +57,8 @@ def pairs(fmu_dir, tmp_path_factory) -> dict:
 
 
 def test_every_native_fmu_has_a_valid_fmi3_variant(pairs):
-    # the plants, the controllers and the loops' own controllers (18 today); closed loops stay
-    # FMI 2.0 (fmpy's container)
+    # the plants, the controllers and the loops' own controllers (18 today); the closed loops'
+    # variants: test_loop_fmi3.py
     assert {"Reentry", "NetworkOperatorController", "GuidedNetworkOperatorController",
             "ProgramController", "ReentryNPC", "Telescope"} <= set(pairs)
     for name, (fmu2, fmu3) in pairs.items():
@@ -289,9 +290,9 @@ def test_variant_reads_back_the_variable_table(fmu_dir, tmp_path):
     assert written == model_description("Law", md.get("guid"), md.get("description"),
                                         fmi3_rows(law_variables(law)), None,
                                         FMI3_GENERATION_TOOL)
-    for other in (fmu3, fmu_dir / "Reentry.fmu", fmu_dir / "native" / "ReentryClosedLoop.fmu"):
+    for other in (fmu3, fmu_dir / "Reentry.fmu"):       # an FMI 3.0, a pythonfmu FMU (a closed
         with pytest.raises(NotNativeError, match="is not a native FMI 2.0 FMU of descent-fmus"):
-            fmi3_variant(other, tmp_path / "again.fmu")     # an FMI 3.0, pythonfmu, container
+            fmi3_variant(other, tmp_path / "again.fmu")    # loop: test_loop_fmi3.py)
 
 
 def test_a_variant_reuses_its_twins_objects(tmp_path):
@@ -319,6 +320,10 @@ def test_export_law_fmi3(fmu_dir, tmp_path, capsys):
     assert summary["controller_fmu_fmi3"] == str(out / "fmi3" / "BestLaw.fmu")
     fmu2, fmu3 = out / "BestLaw.fmu", out / "fmi3" / "BestLaw.fmu"
     assert validate_fmu(str(fmu3)) == []
+    # the interpreter law's start values (the law itself) go with the variant, which reads them
+    # (the law below flies as the FMI 2.0 FMU's; the interpreter's compiled starts do not)
+    with zipfile.ZipFile(fmu2) as z2, zipfile.ZipFile(fmu3) as z3:
+        assert z3.read("resources/start_values.txt") == z2.read("resources/start_values.txt")
     # the law of y1, y2 over a grid of inputs: the same u, bitwise
     grid = np.zeros(41, dtype=[("time", float), ("x[1]", float), ("x[2]", float)])
     grid["time"] = np.arange(41.0)

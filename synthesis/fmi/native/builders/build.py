@@ -419,12 +419,14 @@ def build_fmu(dest, identifier: str, description: str, variables, generated: dic
 
 def write_native_fmu(dest, identifier: str, guid: str, description: str, variables, files: dict,
                      model_files, model_c, experiment: dict | None = None,
-                     compiler: str | None = None, fmi_version: int = 2) -> Path:
+                     compiler: str | None = None, fmi_version: int = 2,
+                     resources: dict | None = None) -> Path:
     """Compile and write the native FMU ``dest`` of a model whose ``model_config.h`` is final:
     ``files`` (name -> text or bytes: generated sources), ``model_files`` (:func:`c_file`
     names or paths to copy), ``model_c`` (the model's C files to compile, in order) and the
     wrapper of ``fmi_version`` (2: ``fmi2_cs.c``; 3: ``fmi3_cs.c``, an adapter over it, with
-    the FMI 3.0 model and build descriptions of the same table: :func:`fmi3_rows`)."""
+    the FMI 3.0 model and build descriptions of the same table: :func:`fmi3_rows`);
+    ``resources`` (name -> bytes) go to ``resources/``."""
     dest = Path(dest)
     if fmi_version == 2:
         wrapper, main = WRAPPER_FILES, "fmi2_cs.c"
@@ -443,6 +445,9 @@ def write_native_fmu(dest, identifier: str, guid: str, description: str, variabl
             shutil.copy(c_file(name), src / c_file(name).name)
         for name, text in files.items():
             (src / name).write_bytes(text if isinstance(text, bytes) else text.encode())
+        for name, data in (resources or {}).items():
+            (root / "resources").mkdir(exist_ok=True)
+            (root / "resources" / name).write_bytes(data)
         compile_sources(src, c_files, root / "binaries" / folder / (identifier + suffix),
                         compiler, cached=c_files if _REUSING else [main])
         if fmi_version == 2:

@@ -9,9 +9,10 @@ FMI 2.0 native FMU -- its variable table read back from its model description, i
 sources from ``sources/`` -- so every native FMU, whoever built it (a system's twin, an
 exported law, a user's plant), has one without its builder knowing.  ``build_fmus.py`` writes
 ``fmus/native/fmi3/<Name>.fmu`` for every native plant and controller
-(:func:`build_fmi3_variants`).
+(:func:`build_fmi3_variants`); an interpreter law's ``resources/start_values.txt`` goes with it.
 
-The closed loops stay FMI 2.0: fmpy's container FMU, which they are, takes FMI 2.0 components.
+The closed loops' variants are :mod:`synthesis.fmi.loop_fmi3`'s (the closed-loop engine under
+the same FMI 3.0 wrapper).
 """
 from __future__ import annotations
 
@@ -71,31 +72,32 @@ def fmi3_variant(src, dest, compiler: str | None = None) -> Path:
         files = {n[len("sources/"):]: z.read(n) for n in names
                  if n.startswith("sources/") and not n.endswith("/")
                  and n[len("sources/"):] not in WRAPPER_FILES}
-        resources = {n: z.read(n) for n in names
-                     if n.startswith("resources/") and not n.endswith("/")}
+        starts = {_STARTS: z.read(f"resources/{_STARTS}")} if f"resources/{_STARTS}" in names \
+            else None
     cs = md.find("CoSimulation")
     model_c = [f.get("name") for f in cs.iter("File") if f.get("name") != "fmi2_cs.c"]
     exp = md.find("DefaultExperiment")
     experiment = {k: float(v) for k, v in exp.attrib.items()} if exp is not None else None
-    out = write_native_fmu(dest, cs.get("modelIdentifier"), md.get("guid"),
-                           md.get("description", ""), variables_of(md), files, [], model_c,
-                           experiment, compiler, fmi_version=3)
-    if resources:                       # a law's start values (resources/start_values.txt)
-        with zipfile.ZipFile(out, "a", zipfile.ZIP_DEFLATED) as z:
-            for name, data in sorted(resources.items()):
-                z.writestr(name, data)
-    return out
+    return write_native_fmu(dest, cs.get("modelIdentifier"), md.get("guid"),
+                            md.get("description", ""), variables_of(md), files, [], model_c,
+                            experiment, compiler, fmi_version=3, resources=starts)
+
+
+#: The one resource a native FMU may carry: an interpreter law's start values (:mod:`.law_fmu`),
+#: which the wrapper reads in place of the compiled ones.
+_STARTS = "start_values.txt"
 
 
 def is_native(fmu) -> bool:
     """Whether ``fmu`` is a native FMI 2.0 FMU of this package: its sources are the FMI 2.0
     wrapper's and a model's (an FMI 3.0 variant ships ``fmi2_cs.c`` too), and it carries no
-    components in its resources (a closed loop: it stays FMI 2.0); a law's start values in
-    ``resources/start_values.txt`` are carried over to the variant."""
+    resources but its start values (a closed loop carries its components:
+    :func:`synthesis.fmi.loop_fmi3.is_closed_loop`)."""
     with zipfile.ZipFile(fmu) as z:
         names = z.namelist()
     return ("sources/fmi2_cs.c" in names and "sources/fmi3_cs.c" not in names
-            and not any(n.startswith("resources/") and n != "resources/start_values.txt"
+            and not any(n.startswith("resources/") and n not in ("resources/",
+                                                                  f"resources/{_STARTS}")
                         for n in names))
 
 

@@ -1,4 +1,5 @@
-/* fmi3_cs.c -- the generic FMI 3.0 co-simulation wrapper of every descent-fmus native FMU.
+/* fmi3_cs.c -- the generic FMI 3.0 co-simulation wrapper of every descent-fmus native FMU and
+ * closed-loop FMU.
  *
  * The same model (native_model.h) as the FMI 2.0 wrapper, and the same wrapper logic: this file
  * compiles fmi2_cs.c into itself under private names (descent_fmi2DoStep, ...; not exported)
@@ -7,15 +8,26 @@
  * exist once, in fmi2_cs.c; this file only translates the interface:
  *
  *   FMI 3.0                              FMI 2.0 wrapper
- *   fmi3InstantiateCoSimulation         fmi2Instantiate (the instantiation token is the GUID)
+ *   fmi3InstantiateCoSimulation         fmi2Instantiate (the instantiation token is the GUID,
+ *                                       the resource path turned into a file URI)
+ *   fmi3InstantiateModelExchange, ...   fmi2Instantiate as model exchange (refused, with its
+ *                                       message)
  *   fmi3EnterInitializationMode(t0, t1) fmi2SetupExperiment + fmi2EnterInitializationMode
  *   fmi3Get/SetFloat64, Get/SetInt32    fmi2Get/SetReal, Get/SetInteger (same value references)
  *   fmi3DoStep                          fmi2DoStep (never an event, never an early return)
  *   the log message callback            the FMI 2.0 logger, relayed (errors are logged whatever
  *                                       loggingOn says, as in fmi2_cs.c)
  *
- * FMI 3.0 adds one variable: the independent variable "time", value reference
- * MODEL_N_REAL + MODEL_N_INTEGER (after every model variable), read-only.  Every function of
+ * Compiled with FMI3_OVER_LOOP defined (fmi3_loop.c), the FMI 2.0 implementation it wraps is
+ * the closed-loop engine (../loop/closed_loop.c and loop_values.c) instead of fmi2_cs.c: the
+ * FMI 3.0 face of a closed loop whose components stay FMI 2.0 FMUs in its resources/.  The
+ * wrapped implementation provides, besides the FMI 2.0 functions, inner_error (an error
+ * through the host's logger), unsupported (a function it does not support) and none_of (a
+ * call about variables of a type it has none of), each with its own message.
+ *
+ * FMI 3.0 requires one independent variable, "time", read-only: for a native FMU value
+ * reference MODEL_N_REAL + MODEL_N_INTEGER (after every model variable), for a closed loop 0
+ * (its FMI 2.0 time).  Every function of
  * the standard's headers is defined; those of features this FMU does not declare (model
  * exchange, scheduled execution, event mode, clocks, FMU state, derivatives, variables of the
  * other types) return fmi3Error with a message, or fmi3OK when asked for nothing.
@@ -23,7 +35,9 @@
  * descent-fmus (MIT licence).
  */
 #include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 /* The FMI 2.0 wrapper's functions under private names: fmi2Functions.h maps every fmi2X to
    fmi2FullName(fmi2X) when it is used; once the header is in, fmi2FullName is redefined, so that
@@ -32,7 +46,16 @@
 #include "fmi2Functions.h"
 #undef fmi2FullName
 #define fmi2FullName(name) descent_##name
+#ifdef FMI3_OVER_LOOP
+#include "closed_loop.c"
+#include "loop_values.c"
+#define inner_error(c, ...) loop_error((Loop *)(c), __VA_ARGS__)
+#define VR_TIME ((fmi3ValueReference)0)
+#else
 #include "fmi2_cs.c"
+#define inner_error(c, ...) log_error((Instance *)(c), __VA_ARGS__)
+#define VR_TIME ((fmi3ValueReference)(MODEL_N_REAL + MODEL_N_INTEGER))
+#endif
 
 #include "fmi3Functions.h"
 
@@ -45,7 +68,6 @@ typedef struct {
 } Adapter;
 
 #define INNER(instance) (((Adapter *)(instance))->inner)
-#define VR_TIME ((fmi3ValueReference)(MODEL_N_REAL + MODEL_N_INTEGER))
 
 /* the FMI 2.0 wrapper's logger: pass the message on to the FMI 3.0 callback (the statuses have
    the same numbers; the message already names the instance) */
@@ -80,7 +102,7 @@ static int scalars(fmi3Instance instance, size_t nvr, size_t nvalues)
 {
     if (nvr == nvalues)
         return 1;
-    log_error((Instance *)INNER(instance), "%lu values for %lu value references: this FMU has "
+    inner_error(INNER(instance), "%lu values for %lu value references: this FMU has "
               "scalar variables only", (unsigned long)nvalues, (unsigned long)nvr);
     return 0;
 }
@@ -97,30 +119,41 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
 }
 
 /* -- creation and destruction ------------------------------------------------------------- */
-/* FMI 3.0 passes the resources as a path, FMI 2.0 as a file URI: the URI of path ('%' escaped,
-   as fmi2_cs.c decodes %XX), malloc'd; NULL for no path */
+
+/* The FMI 2.0 resource location of an FMI 3.0 resource path (a folder): a file URI, every byte
+   but the unreserved ones, '/' and ':' percent-encoded, '\' read as '/'; NULL for NULL. */
 static char *resource_uri(const char *path)
 {
-    size_t n = 0;
     char *uri, *q;
-    const char *p;
-    if (path == NULL)
+    if (path == NULL || (uri = (char *)malloc(3 * strlen(path) + 9)) == NULL)
         return NULL;
-    for (p = path; *p; p++)
-        n += (*p == '%') ? 3 : 1;
-    uri = (char *)malloc(n + 9);
-    if (uri == NULL)
-        return NULL;
-    strcpy(uri, path[0] == '/' ? "file://" : "file:///");
-    for (q = uri + strlen(uri), p = path; *p; p++) {
-        if (*p == '%') {
-            strcpy(q, "%25");
-            q += 3;
-        } else
-            *q++ = *p;
+    q = uri + sprintf(uri, "file://%s", path[0] == '/' ? "" : "/");
+    for (; *path; path++) {
+        unsigned char c = (unsigned char)*path;
+        if (c == '\\')
+            *q++ = '/';
+        else if ((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9')
+                 || strchr("-._~/:", c) != NULL)
+            *q++ = (char)c;
+        else
+            q += sprintf(q, "%%%02X", c);
     }
-    *q = '\0';
+    *q = 0;
     return uri;
+}
+
+/* fmi2Instantiate of the wrapped implementation as `type`, its messages relayed to a->log */
+static fmi2Component instantiate2(Adapter *a, fmi3String name, fmi2Type type, fmi3String token,
+                                  fmi3String resourcePath, fmi3Boolean visible,
+                                  fmi3Boolean loggingOn)
+{
+    fmi2CallbackFunctions callbacks = {relay, calloc, free, NULL, NULL};
+    char *uri = resource_uri(resourcePath);
+    fmi2Component c;
+    callbacks.componentEnvironment = a;
+    c = fmi2Instantiate(name, type, token, uri, &callbacks, visible, loggingOn);
+    free(uri);
+    return c;
 }
 
 fmi3Instance fmi3InstantiateCoSimulation(
@@ -131,8 +164,6 @@ fmi3Instance fmi3InstantiateCoSimulation(
     fmi3LogMessageCallback logMessage, fmi3IntermediateUpdateCallback intermediateUpdate)
 {
     Adapter *a = (Adapter *)calloc(1, sizeof(Adapter));
-    fmi2CallbackFunctions callbacks = {relay, calloc, free, NULL, NULL};
-    char *uri;
     (void)earlyReturnAllowed;       /* a step always ends where it was asked to */
     (void)requiredIntermediateVariables;
     (void)nRequiredIntermediateVariables;
@@ -141,14 +172,11 @@ fmi3Instance fmi3InstantiateCoSimulation(
         return NULL;
     a->env = instanceEnvironment;
     a->log = logMessage;
-    callbacks.componentEnvironment = a;
-    uri = resource_uri(resourcePath);
-    a->inner = fmi2Instantiate(instanceName, fmi2CoSimulation, instantiationToken, uri,
-                               &callbacks, visible, loggingOn);
-    free(uri);
+    a->inner = instantiate2(a, instanceName, fmi2CoSimulation, instantiationToken, resourcePath,
+                            visible, loggingOn);
     if (a->inner != NULL && eventModeUsed) {
-        log_error((Instance *)a->inner, "event mode is not supported by this FMU "
-                  "(hasEventMode=\"false\")");
+        inner_error(a->inner, "event mode is not supported by this FMU "
+                    "(hasEventMode=\"false\")");
         fmi2FreeInstance(a->inner);
         a->inner = NULL;
     }
@@ -159,22 +187,19 @@ fmi3Instance fmi3InstantiateCoSimulation(
     return a;
 }
 
-/* the other interface types: refused through the caller's logger */
-static fmi3Instance cs_only(fmi3String name, fmi3InstanceEnvironment env,
+/* the other interface types: refused by the wrapped fmi2Instantiate, with its message, through
+   the caller's logger */
+static fmi3Instance cs_only(fmi3String name, fmi3String token, fmi3InstanceEnvironment env,
                             fmi3LogMessageCallback log)
 {
-    Instance tmp;
     Adapter a;
-    fmi2CallbackFunctions callbacks = {relay, calloc, free, NULL, NULL};
-    memset(&tmp, 0, sizeof tmp);
+    fmi2Component c;
     a.inner = NULL;
     a.env = env;
     a.log = log;
-    callbacks.componentEnvironment = &a;
-    tmp.name = (char *)(name ? name : "");
-    tmp.logger = callbacks.logger;
-    tmp.env = &a;
-    log_error(&tmp, "this FMU supports co-simulation only");
+    if ((c = instantiate2(&a, name, fmi2ModelExchange, token, NULL, fmi3False, fmi3False))
+        != NULL)
+        fmi2FreeInstance(c);        /* not reached: a co-simulation FMU refuses */
     return NULL;
 }
 
@@ -184,8 +209,8 @@ fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String in
                                           fmi3InstanceEnvironment instanceEnvironment,
                                           fmi3LogMessageCallback logMessage)
 {
-    (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
-    return cs_only(instanceName, instanceEnvironment, logMessage);
+    (void)resourcePath; (void)visible; (void)loggingOn;
+    return cs_only(instanceName, instantiationToken, instanceEnvironment, logMessage);
 }
 
 fmi3Instance fmi3InstantiateScheduledExecution(
@@ -194,9 +219,9 @@ fmi3Instance fmi3InstantiateScheduledExecution(
     fmi3LogMessageCallback logMessage, fmi3ClockUpdateCallback clockUpdate,
     fmi3LockPreemptionCallback lockPreemption, fmi3UnlockPreemptionCallback unlockPreemption)
 {
-    (void)instantiationToken; (void)resourcePath; (void)visible; (void)loggingOn;
+    (void)resourcePath; (void)visible; (void)loggingOn;
     (void)clockUpdate; (void)lockPreemption; (void)unlockPreemption;
-    return cs_only(instanceName, instanceEnvironment, logMessage);
+    return cs_only(instanceName, instantiationToken, instanceEnvironment, logMessage);
 }
 
 void fmi3FreeInstance(fmi3Instance instance)
@@ -265,7 +290,7 @@ fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
         return fmi3Error;
     for (k = 0; k < nValueReferences; k++)
         if (valueReferences[k] == VR_TIME) {
-            log_error((Instance *)INNER(instance), "value reference %lu is the independent "
+            inner_error(INNER(instance), "value reference %lu is the independent "
                       "variable time and cannot be set", (unsigned long)VR_TIME);
             return fmi3Error;
         }

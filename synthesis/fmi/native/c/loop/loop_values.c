@@ -1,6 +1,7 @@
 /* loop_values.c -- the closed-loop engine's get and set (the time, value reference 0, or a
  * component's variable, by the mapping of resources/loop.txt) and the FMI functions a closed
- * loop does not support (see closed_loop.c). */
+ * loop does not support (see closed_loop.c).  unsupported and none_of are also the messages of
+ * the engine's FMI 3.0 face (../fmi3/fmi3_cs.c compiled with FMI3_OVER_LOOP). */
 #include <stdio.h>
 #include <string.h>
 
@@ -127,18 +128,28 @@ static fmi2Status unsupported(fmi2Component c, const char *what)
     return fmi2Error;
 }
 
+/* a call about variables of a type the closed loop has none of: fine when it names none */
+static fmi2Status none_of(fmi2Component c, size_t n, const char *type)
+{
+    if (n == 0)
+        return fmi2OK;
+    if (c != NULL)
+        loop_error((Loop *)c, "this closed-loop FMU has no %s variables", type);
+    return fmi2Error;
+}
+
 fmi2Status fmi2GetString(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                          fmi2String v[])
 {
     (void)vr, (void)v;
-    return n == 0 ? fmi2OK : unsupported(c, "fmi2GetString");
+    return none_of(c, n, "String");
 }
 
 fmi2Status fmi2SetString(fmi2Component c, const fmi2ValueReference vr[], size_t n,
                          const fmi2String v[])
 {
     (void)vr, (void)v;
-    return n == 0 ? fmi2OK : unsupported(c, "fmi2SetString");
+    return none_of(c, n, "String");
 }
 
 fmi2Status fmi2GetFMUstate(fmi2Component c, fmi2FMUstate *s)
