@@ -74,6 +74,33 @@ class FormSearch:
             picks.append(int(k))
         return picks
 
+    def _fresh_starts(self, starts: list) -> list:
+        """``starts`` (``(index, member, structure key)``) with ``form_starts - 1`` fresh
+        starts (random bits, as the initial population's) after each new form's own: a new
+        form needs other constants than the ones it inherited, and one CMA-ES from them may
+        settle in their basin."""
+        extra = self.refine_cfg.form_starts - 1
+        if extra <= 0:
+            return starts
+        out = []
+        for k, m, key in starts:
+            out.append((k, m, key))
+            if key not in self.refinement.pool:
+                out += [(k, m, key, self.rng.integers(0, 2, self.params.n_bits).astype(np.uint8))
+                        for _ in range(extra)]
+        return out
+
+    def _rest(self, n: int) -> int:
+        """The flights the winner of this epoch's refinement (``n`` searches) gets beyond its
+        last rung (``rest``): the flights left after the refinement, when they cannot hold
+        one more epoch (its children and refinement), else 0."""
+        cfg = self.refine_cfg
+        if not cfg.rest or not self.flights:
+            return 0
+        left = self.flights - self.evaluations - cfg.epoch_evals(n)
+        epoch = self.cfg.epoch * 4 * self.cfg.crossovers + cfg.epoch_evals()
+        return max(0, left) if left < epoch else 0
+
     def _stalled(self, best) -> bool:
         """Whether the best law by the target has not improved for ``restart_epochs`` epochs
         (then counted from 0 again)."""

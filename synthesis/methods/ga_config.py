@@ -9,11 +9,17 @@ from dataclasses import dataclass
 
 from descent_fmus.synthesis.methods.settings import check_settings, setting
 
-__all__ = ["GAConfig", "PAPER_UNARY", "PAPER_BINARY", "WIDE_UNARY", "WIDE_BINARY"]
+__all__ = ["GAConfig", "PAPER_UNARY", "PAPER_BINARY", "WIDE_UNARY", "WIDE_BINARY",
+           "FILE_UNARY", "FILE_BINARY"]
 
 #: The operations the variations may use by default: the paper's set (the seeds' numbering).
 PAPER_UNARY = (1, 3, 4, 5, 8, 9, 10, 14, 15)
 PAPER_BINARY = (1, 2)
+#: The operations of a problem file that names none: the paper's set with the geometry
+#: operations (unary wrap, cos, sin; binary atan2, hypot) -- [choice] docs/methods/network_operator.md
+#: "Choosing the operations"; registered systems keep the paper's set.
+FILE_UNARY = PAPER_UNARY + (29, 11, 12)
+FILE_BINARY = PAPER_BINARY + (9, 10)
 #: The authors' wider operation set (``--wide-ops``).
 WIDE_UNARY, WIDE_BINARY = tuple(range(1, 29)), (1, 2, 3, 4)
 

@@ -73,6 +73,14 @@ class RefineConfig:
                             "members by the target with distinct structures each get a short "
                             "CMA-ES, the better half goes on with twice the evaluations, until "
                             "one has `evals` (0 = the `laws` best, `evals` each)", 0, 64)
+    form_starts: int = setting(1, "CMA-ES searches per new form in the successive halving: "
+                                  "from its own parameters and from form_starts - 1 random "
+                                  "ones (drawn as the initial population's); the best counts",
+                               1, 16)
+    rest: int = setting(0, "when the flights left after an epoch's refinement cannot hold "
+                           "one more epoch, the refinement's winner goes on with them (its "
+                           "last rung takes the rest; 0 = the GA goes on; with `forms` only)",
+                        0, 1)
 
     def __post_init__(self):
         check_settings(self, "refine.")
@@ -89,13 +97,13 @@ class RefineConfig:
         k = max(0, math.ceil(math.log2(n)))
         return [max(1, self.evals >> (k - i)) for i in range(k + 1)]
 
-    def epoch_evals(self) -> int:
+    def epoch_evals(self, n: int | None = None) -> int:
         """Evaluations of the refinement after every epoch (at most; searches may stop earlier
-        in a rung)."""
+        in a rung), with ``n`` searches in the halving (default ``forms``)."""
         if not self.forms:
             return self.evals * self.laws
-        total, alive, done = 0, self.forms, 0
-        for r in self.rungs():
+        total, alive, done = 0, n or self.forms, 0
+        for r in self.rungs(alive):
             total += alive * (r - done)
             alive, done = max(1, math.ceil(alive / 2)), r
         return total
@@ -179,7 +187,8 @@ class Refinement:
 
     def start(self, picks, budget: int, rng: np.random.Generator, patience: int = 0,
               rungs=None) -> None:
-        """Start a refinement of the members ``picks`` (``(index, member, structure key)``),
+        """Start a refinement of the members ``picks`` (``(index, member, structure key)``,
+        or with a fourth item, the bits of a fresh start: a CMA-ES of its own from there),
         ``budget`` evaluations each (then on until ``patience`` IPOP restarts in a row fail to
         improve, if ``patience``); one seed per member is drawn from ``rng``.  With ``rungs``
         (increasing budgets, the last ``budget``): successive halving -- every search runs to
@@ -187,8 +196,12 @@ class Refinement:
         not tuned before starts a CMA-ES of its own (the latest search's step and covariance
         fit another form's gains)."""
         searches = []
-        for k, m, key in picks:
+        for k, m, key, *fresh in picks:
             seed = int(rng.integers(0, 2 ** 31 - 1))
+            if fresh:                  # a fresh start of a new form (``form_starts``)
+                searches.append(_Search(k, self.new_cma(self.codec.decode(fresh[0]), seed), 0,
+                                        m.bits.copy(), m.f.copy(), m.cv, patience))
+                continue
             old = self.pool.pop(key, None)
             q = self.codec.decode(m.bits)
             if old is not None:

@@ -383,10 +383,13 @@ class VariationalGA(FormSearch, Method):
         else:
             picks = self._promising(self.refine_cfg.forms or self.refine_cfg.laws)
             budget = self.refine_cfg.evals
-        rungs = self.refine_cfg.rungs(len(picks)) if self.refine_cfg.forms and not basis \
-            else None
-        self.refinement.start([(k, self.pop[k], self._structure_key(self.pop[k]))
-                               for k in picks], budget, self.rng, patience, rungs)
+        starts = [(k, self.pop[k], self._structure_key(self.pop[k])) for k in picks]
+        rungs = None
+        if self.refine_cfg.forms and not basis:
+            starts = self._fresh_starts(starts)
+            rungs = self.refine_cfg.rungs(len(starts))
+            budget = rungs[-1] = rungs[-1] + self._rest(len(starts))
+        self.refinement.start(starts, budget, self.rng, patience, rungs)
 
     def _finish_refine(self) -> None:
         """The refined parameters replace those of the members they started from."""

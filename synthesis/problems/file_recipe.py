@@ -11,7 +11,7 @@ from pathlib import Path
 
 from descent_fmus.models.controllers.operation_table import OperationNameError, operation_numbers
 from descent_fmus.synthesis.methods.pareto import Target
-from descent_fmus.synthesis.methods.ga_config import PAPER_BINARY, PAPER_UNARY
+from descent_fmus.synthesis.methods.ga_config import FILE_BINARY, FILE_UNARY
 from descent_fmus.synthesis.problems.contract import DEFAULT_Q_BITS, Budget
 from descent_fmus.synthesis.problems.file_reader import Reader, read_settings
 from descent_fmus.synthesis.problems.limits import MAX_BASELINES
@@ -70,9 +70,10 @@ def _q_bits(rd: Reader, ga: dict, law) -> tuple:
 
 def _operations(rd: Reader, ga: dict) -> dict:
     """The operation sets of the variations: ``[ga] unary``/``binary``, lists of operation
-    names or numbers (``["id", "neg", "wrap"]``, ``[1, 2, "atan2"]``)."""
+    names or numbers (``["id", "neg", "wrap"]``, ``[1, 2, "atan2"]``); default the paper's set
+    with the geometry operations (``FILE_UNARY``, ``FILE_BINARY``)."""
     ops = {}
-    for key, default in (("unary", PAPER_UNARY), ("binary", PAPER_BINARY)):
+    for key, default in (("unary", FILE_UNARY), ("binary", FILE_BINARY)):
         v = ga.get(key, list(default))
         if not (isinstance(v, list) and v and len(v) <= 64):
             raise rd.error(f"ga.{key}", f"must be a non-empty list of at most 64 operation "

@@ -252,3 +252,80 @@ def test_children_with_the_basis_parameters():
         children = ga._children()
         same = [np.array_equal(c.bits, ga.pop[0].bits) for c in children]
         assert children and all(same) == all_basis
+
+
+# -- the last epoch's winner takes the rest; fresh starts of new forms ----------------------------
+def test_the_last_refinement_winner_takes_the_flights_left():
+    # the GA's sizes: an epoch is 5 generations x 4 crossovers x 4 children = 80 children, and
+    # its refinement 4 x 10 + 2 x 10 + 1 x 20 = 80 evaluations (rungs 10, 20, 40; hand count)
+    ga, _ = _stall_ga(1, None)
+    ga.refine_cfg = RefineConfig(basis=0, evals=40, forms=4, rest=1)
+    ga.flights = 1000
+    assert ga.refine_cfg.epoch_evals() == 80
+    ga.evaluations = 700        # 1000 - 700 - 80 = 220 left after it: one more epoch (160) fits
+    assert ga._rest(4) == 0
+    ga.evaluations = 800        # 120 left after it: no epoch fits, the winner gets the 120
+    assert ga._rest(4) == 120
+    ga.refine_cfg = RefineConfig(basis=0, evals=40, forms=4, rest=0)
+    assert ga._rest(4) == 0                                              # off: the GA goes on
+    ga.refine_cfg, ga.flights = RefineConfig(basis=0, evals=40, forms=4, rest=1), 0
+    assert ga._rest(4) == 0                                              # no flight budget
+    # in the halving, the extended last rung goes to the winner alone: 8 forms, rungs 25, 50,
+    # 100 and 200 + 300; CMA-ES asks 6 a generation (2 parameters), so the first rungs end at
+    # 30, 54 and 102 evaluations (the first multiples of 6 at or above them), the last within
+    # one generation past 500 (IPOP restarts on the converged bowl double the 6 to 12)
+    cfg = RefineConfig(basis=0, evals=200, forms=8)
+    ref = Refinement(CODEC, cfg, Target(0))
+    members = _forms(8)
+    ref.start([(k, m, str(k)) for k, m in enumerate(members)], 500,
+              np.random.default_rng(4), 0, [25, 50, 100, 500])
+    evals = [0] * 8
+    while True:
+        rows = []
+        for k, bits in ref.ask():
+            m = _Member([], bits)
+            m.f, m.cv = np.array([_form_value(7 - k, CODEC.decode(bits))]), 0.0
+            evals[k] += 1
+            rows.append(m)
+        if ref.tell(rows):
+            break
+    assert sorted(evals)[:7] == [30] * 4 + [54] * 2 + [102]
+    assert 500 <= max(evals) < 500 + 12
+
+
+def test_fresh_starts_of_new_forms_are_searches_of_their_own():
+    ga, psi0 = _stall_ga(5, 10)
+    ga.refine_cfg = RefineConfig(basis=0, evals=40, forms=4, form_starts=3)
+    ga.tell(_stalled_objectives(psi0)([c.law for c in ga.ask()]))        # initial population
+    # member 0's form was tuned before (in the pool): no fresh start; the new forms get 2 each
+    ga.refinement.pool[ga._structure_key(ga.pop[0])] = (None, "")
+    starts = ga._fresh_starts([(k, ga.pop[k], ga._structure_key(ga.pop[k])) for k in (0, 1)])
+    assert [(s[0], len(s)) for s in starts] == [(0, 3), (1, 3), (1, 4), (1, 4)]
+    assert not np.array_equal(starts[2][3], starts[3][3])               # random bits, drawn
+    ga.refine_cfg = RefineConfig(basis=0, evals=40, forms=4, form_starts=1)
+    assert len(ga._fresh_starts(starts[:2])) == 2                       # 1: the form's own only
+    # in a refinement, a fresh start is a CMA-ES from its own bits; of a member's searches the
+    # best counts: form 0 (the bowl's floor 0, closed form) from (1, 1) and from (-1.9, 1.9)
+    ref = Refinement(CODEC, RefineConfig(basis=0, evals=200, forms=2), Target(0))
+    members = _forms(2)
+    ref.start([(0, members[0], "a"), (0, members[0], "a", CODEC.encode([-1.9, 1.9])),
+               (1, members[1], "b")], 200, np.random.default_rng(2), 0, [100, 200])
+    firsts = {}
+    while True:
+        asked = ref.ask()
+        rows = []
+        for k, bits in asked:
+            m = _Member([], bits)
+            m.f, m.cv = np.array([_form_value(1 - k, CODEC.decode(bits))]), 0.0
+            rows.append(m)
+        for i, (k, bits) in enumerate(asked[:12]):
+            firsts.setdefault(i, CODEC.decode(bits))
+        if ref.tell(rows):
+            break
+    # the first generation's candidates of the fresh start lie near (-1.9, 1.9) (step 0.3 x
+    # its size), those of the form's own near (1, 1)
+    assert all(abs(firsts[i][0] - 1.0) < 1.5 for i in range(6))
+    assert all(firsts[i][0] < 0 for i in range(6, 12))
+    better = {k: float(f[0]) for k, _, f, _ in ref.finish(members, lambda m: "x")}
+    # member 0 flies form 1 (floor 0.1), member 1 form 0 (floor 0): both tuned to their floors
+    assert better[0] == pytest.approx(0.1, abs=1e-3) and better[1] == pytest.approx(0, abs=1e-3)
