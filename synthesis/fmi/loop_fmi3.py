@@ -14,13 +14,12 @@ closed loop alike (``descent-fmus fmi3-variant``).
 """
 from __future__ import annotations
 
-import time
 import zipfile
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from descent_fmus.synthesis.fmi.native.builders.fmi3 import (NotNativeError, fmi3_variant,
-                                                              is_native)
+from descent_fmus.synthesis.fmi.native.builders.fmi3 import (NotNativeError, build_fmi3_variants,
+                                                              fmi3_variant, is_native)
 
 __all__ = ["is_closed_loop", "loop_variant", "any_fmi3_variant", "build_loop_variants"]
 
@@ -124,11 +123,5 @@ def any_fmi3_variant(src, dest, compiler: str | None = None) -> Path:
 def build_loop_variants(fmus, out_dir, compiler: str | None = None, say=print) -> list:
     """The FMI 3.0 variant of every closed loop of the engine among ``fmus`` into ``out_dir``,
     under the same file names; ``say`` gets one line per FMU."""
-    built = []
-    for fmu in map(Path, fmus):
-        if fmu.suffix == ".fmu" and is_closed_loop(fmu):
-            t0 = time.perf_counter()
-            built.append(loop_variant(fmu, Path(out_dir) / fmu.name, compiler))
-            say(f"built {Path(out_dir).name}/{fmu.name}, FMI 3.0 "
-                f"({time.perf_counter() - t0:.1f} s)")
-    return built
+    return build_fmi3_variants(fmus, out_dir, compiler, say, accept=is_closed_loop,
+                               variant=loop_variant)

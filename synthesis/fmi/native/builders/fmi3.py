@@ -101,14 +101,16 @@ def is_native(fmu) -> bool:
                         for n in names))
 
 
-def build_fmi3_variants(fmus, out_dir, compiler: str | None = None, say=print) -> list:
-    """The FMI 3.0 variant of every native FMU among ``fmus`` (closed loops are skipped) into
+def build_fmi3_variants(fmus, out_dir, compiler: str | None = None, say=print, *,
+                        accept=is_native, variant=fmi3_variant) -> list:
+    """The FMI 3.0 variant of every FMU among ``fmus`` that ``accept`` takes (by default the
+    native FMUs; closed loops are skipped), made by ``variant(src, dest, compiler)`` into
     ``out_dir``, under the same file names; ``say`` gets one line per FMU."""
     built = []
     for fmu in map(Path, fmus):
-        if fmu.suffix == ".fmu" and is_native(fmu):
+        if fmu.suffix == ".fmu" and accept(fmu):
             t0 = time.perf_counter()
-            built.append(fmi3_variant(fmu, Path(out_dir) / fmu.name, compiler))
+            built.append(variant(fmu, Path(out_dir) / fmu.name, compiler))
             say(f"built {Path(out_dir).name}/{fmu.name}, FMI 3.0 "
                 f"({time.perf_counter() - t0:.1f} s)")
     return built
