@@ -104,7 +104,7 @@ def _behaviour_key(law, points) -> bytes | None:
     """The law's unclipped outputs on ``points``, to 12 significant digits, hashed (None when
     the law cannot be evaluated here: the FMU will say why)."""
     try:
-        values = [v for x in points for v in law.raw(x)]
+        values = [v for row in law.raw_points(points) for v in row]
     except Exception:
         return None
     text = ",".join(f"{v:.12g}" for v in values)
