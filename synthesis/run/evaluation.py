@@ -44,6 +44,7 @@ from descent_fmus.synthesis.paths import require_fmu
 from descent_fmus.synthesis.problems.contract import SynthesisProblem
 from descent_fmus.synthesis.run.backends import (Backend, SchedulerError, chunk_size,
                                                  flight_path, make_backend)
+from descent_fmus.synthesis.run.probes import native_prober
 from descent_fmus.synthesis.run.signals import check_stop
 
 __all__ = ["Evaluator", "Evaluation", "SchedulerError", "SystematicFailure", "chunk_size",
@@ -100,13 +101,16 @@ def _probes(problem):
                       probe_inputs(basic, n // 2, seed=54321, spread=4.0)])
 
 
-def _behaviour_key(law, points) -> bytes | None:
+def _behaviour_key(law, points, prober=None) -> bytes | None:
     """The law's unclipped outputs on ``points``, to 12 significant digits, hashed (None when
-    the law cannot be evaluated here: the FMU will say why)."""
-    try:
-        values = [v for row in law.raw_points(points) for v in row]
-    except Exception:
-        return None
+    the law cannot be evaluated here: the FMU will say why); ``prober``: the native route
+    (:mod:`synthesis.run.probes`, the same values)."""
+    values = prober.values(law, points) if prober is not None else None
+    if values is None:
+        try:
+            values = [v for row in law.raw_points(points) for v in row]
+        except Exception:
+            return None
     text = ",".join(f"{v:.12g}" for v in values)
     return hashlib.blake2b(text.encode(), digest_size=16).digest()
 
@@ -158,6 +162,8 @@ class Evaluator:
         self.new_behaviour: list = []               # (key, Outcome) not yet in a checkpoint
         self.equivalent = 0                          # laws not flown: equivalent to one flown
         self._probes = _probes(problem)
+        self._prober = native_prober(problem, self.fmus) \
+            if self._probes is not None and self.path.startswith("native") else None
         self.flown: set = set()                     # fingerprints of every law flown in the run
         self.new_flown: list = []                   # ... of those not yet in a checkpoint
         self.simulated = 0
@@ -286,7 +292,7 @@ class Evaluator:
             return [(k, law, None) for k, law in todo]
         out = []
         for k, law in todo:
-            b = _behaviour_key(law, self._probes)
+            b = _behaviour_key(law, self._probes, self._prober)
             known = self.behaviour.get(b) if b is not None else None
             if known is not None:
                 self.cache[k] = known
