@@ -115,30 +115,44 @@ def _compile_array(psi, nx: int, nq: int, outputs):
     once (the search compiles thousands of laws a second); None when a check fails, so that
     :func:`compile_law`'s item-by-item checks name the fault.  The same program: the arcs in
     the same order (row by row), the same initial values and outputs."""
-    import numpy as np
     L = psi.shape[0]
     ns = nx + nq
     if psi.shape[1] != L or nx < 0 or nq < 0 or ns > L:
         return None
-    diag = np.diagonal(psi)
-    upper = np.triu(psi, 1)
-    if np.any(np.tril(psi, -1)) or np.any(diag < 0) or np.any(diag >= len(BINARY)) \
-            or np.any(diag[:ns]) or np.any(upper < 0) or np.any(upper >= len(UNARY)) \
-            or np.any(upper[:, :ns]):
+    lower, ii, jj = _triangles(L)
+    diag = psi.diagonal()
+    up = psi[ii, jj]                                # above the diagonal, row by row
+    if L and (psi[lower].any() or diag.min() < 0 or diag.max() >= len(BINARY)
+              or diag[:ns].any() or up.min(initial=0) < 0 or up.max(initial=0) >= len(UNARY)
+              or up[jj < ns].any()):
         return None
     outs = [int(o) - 1 for o in outputs]
     if any(not 0 <= o < L for o in outs):
         return None
     d = diag.tolist()
-    ii, jj = np.nonzero(upper * (diag != 0)[None, :])       # row-major: i, then j
-    ops = upper[ii, jj].tolist()
-    arcs = [(i, j, UNARY[r], BINARY[d[j]]) for i, j, r in zip(ii.tolist(), jj.tolist(), ops)]
-    fed = set(jj.tolist())
+    on = (up != 0) & (diag[jj] != 0)
+    fed = jj[on].tolist()
+    arcs = [(i, j, UNARY[r], BINARY[d[j]])
+            for i, j, r in zip(ii[on].tolist(), fed, up[on].tolist())]
+    fed = set(fed)
     init = [None] * L
     for j in range(ns, L):          # the unit; finite(unit) (atan2: 0) on a node without arcs
         b = d[j]
         init[j] = (UNIT[b] if j in fed else finite(UNIT[b])) if b else 0.0
     return L, init, arcs, outs
+
+
+_TRIANGLES: dict = {}
+
+
+def _triangles(L: int):
+    """The mask below the diagonal and the indices above it (row by row) of an L x L matrix."""
+    t = _TRIANGLES.get(L)
+    if t is None:
+        import numpy as np
+        ii, jj = np.triu_indices(L, 1)
+        t = _TRIANGLES[L] = (np.tril(np.ones((L, L), bool), -1), ii, jj)
+    return t
 
 
 def evaluate(program, sources):

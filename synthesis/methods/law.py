@@ -94,9 +94,11 @@ class NetworkOperator:
                                           and len(self.outputs) > psi.shape[0]):
             raise MatrixError(f"more parameters or outputs than the matrix's "
                               f"{psi.shape[0]} nodes")
-        if psi.size and not np.all(np.isfinite(psi.astype(float))):
+        integer = psi.dtype.kind in "iu"            # finite integers already
+        if psi.size and not integer and not np.all(np.isfinite(psi.astype(float))):
             raise MatrixError("matrix has non-finite entries")
-        if psi.size and not (np.all(psi == np.round(psi)) and np.all(np.abs(psi) < 2 ** 31)):
+        if psi.size and not ((integer or np.all(psi == np.round(psi)))
+                             and np.all(np.abs(psi) < 2 ** 31)):
             raise MatrixError("matrix entries must be integers (operation numbers)")
         self.psi = psi.astype(int)
         L = self.psi.shape[0]
