@@ -29,7 +29,8 @@ from descent_fmus.synthesis.run.flights import LawFlyer
 from descent_fmus.synthesis.run.signals import check_stop, watch_parent
 
 __all__ = ["Backend", "InProcess", "ProcessPool", "DaskCluster", "make_backend", "chunk_size",
-           "SchedulerError", "TASK_OVERHEAD", "TASK_DISPATCH", "FIRST_GUESS_FLIGHT"]
+           "SchedulerError", "TASK_OVERHEAD", "TASK_DISPATCH", "FIRST_GUESS_FLIGHT",
+           "SMALL_BATCH"]
 
 
 class SchedulerError(ConnectionError):
@@ -43,6 +44,9 @@ class SchedulerError(ConnectionError):
 #: a shared, loaded 2-core machine (the upper end: larger chunks are the safe side).
 TASK_OVERHEAD = {"pool": 0.0037, "dask": 0.0094}
 TASK_DISPATCH = {"pool": 0.0, "dask": 0.009}
+#: [choice] A local pool flies a batch of at most this many laws in the parent process (the
+#: same flyer on the same FMUs): a round trip to the workers costs more than the flights.
+SMALL_BATCH = 16
 #: Cost of one law's flights [s] assumed until the first batch has measured it.
 FIRST_GUESS_FLIGHT = 0.02
 
@@ -159,6 +163,8 @@ class ProcessPool(Backend):
         self._ctx = multiprocessing.get_context()
         self._pids = self._ctx.SimpleQueue()
         self._known: set = set()
+        self._here: LawFlyer | None = None          # flies small batches
+        self.small_batch = SMALL_BATCH                # (0: every batch goes to the workers)
         self._pool = self._new_pool()
 
     def _new_pool(self):
@@ -174,6 +180,8 @@ class ProcessPool(Backend):
         return set(self._known)
 
     def fly(self, laws) -> list:
+        if len(laws) <= self.small_batch:
+            return self._fly_here(laws)
         chunks = self._chunks(laws, self.workers)
         try:
             futures = [self._pool.submit(_fly_in_worker, c) for c in chunks]
@@ -190,6 +198,15 @@ class ProcessPool(Backend):
             self._end_pool(wait=False)
             self._pool = self._new_pool()
             return [(None, f"worker died: {exc}")] * len(laws)
+
+    def _fly_here(self, laws) -> list:
+        """A small batch flown in this process: the workers' code on the same FMUs, so the
+        same outcomes, without a round trip to them (:data:`SMALL_BATCH`)."""
+        if self._here is None:
+            self._here = LawFlyer(self.problem, *self.fmus)
+        out, seconds = self._here.fly_timed(laws)
+        self.flight_seconds = seconds / max(len(laws), 1)
+        return out
 
     def _end_pool(self, wait: bool) -> None:
         pool, self._pool = self._pool, None
@@ -212,6 +229,9 @@ class ProcessPool(Backend):
 
     def close(self, wait: bool = True) -> None:
         self._end_pool(wait)
+        here, self._here = self._here, None
+        if here is not None:
+            here.close()
 
 
 def _signal(pid: int, sig) -> None:

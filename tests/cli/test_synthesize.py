@@ -57,8 +57,14 @@ def test_fmu_error_costs_one_candidate(fmu_dir):
 def test_local_pool_equals_in_process(fmu_dir):
     rng = np.random.default_rng(3)
     laws = [paper_basic_law(q=rng.uniform(0, 8, 2)) for _ in range(6)]
-    with Evaluator(REENTRY, fmu_dir) as ev1, Evaluator(REENTRY, fmu_dir, workers=2) as ev2:
+    with Evaluator(REENTRY, fmu_dir) as ev1, Evaluator(REENTRY, fmu_dir, workers=2) as ev2, \
+            Evaluator(REENTRY, fmu_dir, workers=2) as ev3:
+        ev2.backend.small_batch = 0                   # these 6 laws go to the workers
         assert np.array_equal(ev1.evaluate(laws).F, ev2.evaluate(laws).F)
+        assert ev2.backend.worker_pids()
+        # a small batch is flown in the parent (SMALL_BATCH): the same outcomes, no worker
+        assert np.array_equal(ev1.evaluate(laws).F, ev3.evaluate(laws).F)
+        assert not ev3.backend.worker_pids()
 
 
 def test_local_worker_death_costs_no_candidate(fmu_dir):
@@ -69,6 +75,7 @@ def test_local_worker_death_costs_no_candidate(fmu_dir):
     with Evaluator(REENTRY, fmu_dir) as ev1:
         F_ref = ev1.evaluate(laws).F
     with Evaluator(REENTRY, fmu_dir, workers=2) as ev:
+        ev.backend.small_batch = 0                # small batches to the workers too
         ev.evaluate([paper_basic_law()])          # start the workers
         pids = ev.backend.worker_pids()
         assert pids
