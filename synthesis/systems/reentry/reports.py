@@ -75,20 +75,9 @@ BOUND_FILES = ("open_loop.json", "open_loop_1km.json")
 
 
 def _bound_key() -> str:
-    """What the bound depends on: the plant's and the bound's code, the entry conditions."""
-    import hashlib
-    import inspect
-    from dataclasses import asdict
-
-    from descent_fmus.models import integrators, reentry
-    from descent_fmus.models.reentry import ReentryParams
-    from descent_fmus.synthesis.methods import open_loop
-    from descent_fmus.synthesis.systems.reentry import bound
-    h = hashlib.sha256()
-    for module in (reentry, integrators, open_loop, bound):
-        h.update(inspect.getsource(module).encode())
-    h.update(repr((sorted(asdict(ReentryParams()).items()), ON_TARGET)).encode())
-    return h.hexdigest()[:20]
+    """What the bound depends on (:func:`.bound_data.bound_key`)."""
+    from descent_fmus.synthesis.systems.reentry.bound_data import bound_key
+    return bound_key()
 
 
 def bound_programs(compute: bool = True):
