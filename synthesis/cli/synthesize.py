@@ -186,6 +186,27 @@ def _law_export(args):
     return LawExport(law_fmu=args.law_fmu or "auto", closed_loops=args.export == "all")
 
 
+def _warm_interpreter(export) -> None:
+    """[choice] The export's one compile -- the native network-operator interpreter FMU, built
+    once per machine into the cache folder (~2 s of the C compiler) -- starts with the run, in
+    a thread of this process, so that a fresh machine's first run does not wait for it after
+    the search (the export takes the same FMU, waiting only if the compile is still going)."""
+    import threading
+
+    from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu
+    what = LawExport.of(export)
+    if what is None or what.compiled or choose_law_fmu(what.law_fmu)[0] != "native":
+        return
+
+    def build():
+        from descent_fmus.synthesis.fmi.native.builders.law_fmu import interpreter_fmu
+        try:
+            interpreter_fmu()
+        except Exception:          # the export builds it again and reports what failed
+            pass
+    threading.Thread(target=build, name="interpreter-fmu", daemon=True).start()
+
+
 def run_synthesize(args) -> int:
     from descent_fmus.synthesis.methods.registry import UnknownMethodError, entry_of
     from descent_fmus.synthesis.paths import FMUNotFoundError
@@ -200,11 +221,13 @@ def run_synthesize(args) -> int:
         raise CliError(str(exc)) from None
     if entry.needs_flights and problem.budget.flights < 1:
         raise CliError(f"method {args.method} needs a flight budget: give --flights N")
+    export = _law_export(args)
+    _warm_interpreter(export)
     try:
         summary = run_synthesis(problem, args.out, fmu_folder(args), method=args.method,
                                 workers=args.workers, scheduler=args.scheduler,
                                 resume=args.resume, progress=not (args.quiet or args.json),
-                                export=_law_export(args), reference=not args.no_reference)
+                                export=export, reference=not args.no_reference)
     except (RunDirError, SchedulerError, FMUNotFoundError, SystematicFailure,
             ResourceLimitError) as exc:
         raise CliError(str(exc)) from None

@@ -22,7 +22,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 __all__ = ["LawExport", "choose_law_fmu", "export_law_files", "law_document", "law_json_text",
-           "readable_text"]
+           "readable_text", "prefetch_readable"]
 
 
 @dataclass(frozen=True)
@@ -86,11 +86,115 @@ def choose_law_fmu(law_fmu: str = "auto") -> tuple[str, str]:
                       "as pythonfmu controller FMUs, which need Python in the host")
 
 
-def _readable(law) -> dict:
+def _compute_readable(law) -> dict:
     try:
         return law.readable().to_dict()
     except Exception as exc:   # SymPy failing on a pathological law: the law is still exported
         return {"text": law.formula(6), "error": f"{type(exc).__name__}: {exc}"}
+
+
+def _readable(law) -> dict:
+    key = _law_key(law)
+    if key is None:
+        return _compute_readable(law)
+    if key not in _READABLE:
+        if len(_READABLE) > 4096:
+            _READABLE.clear()
+        _READABLE[key] = _compute_readable(law)
+    return _READABLE[key]
+
+
+# -- the readable forms of a run's Pareto laws, at once ----------------------------------------
+#: This process's readable forms by law content (:func:`_law_key`).
+_READABLE: dict = {}
+#: [choice] SymPy takes ~30-50 ms a law (a run's ~100 Pareto laws: most of the report's time), so
+#: :func:`prefetch_readable` keeps each law's readable form in the cache folder under the law's
+#: content and the formula code's, and computes the missing ones in forked processes (SymPy
+#: imported before the fork; worth it from this many laws a process on).
+LAWS_PER_PROCESS = 12
+
+
+def _law_key(law) -> str | None:
+    """The content key of a network-operator law (None for any other kind of law)."""
+    import hashlib
+
+    from descent_fmus.synthesis.methods.law import NetworkOperator
+    if type(law) is not NetworkOperator:
+        return None
+    d = law.to_dict(formula=False)
+    return hashlib.sha256(json.dumps(d, sort_keys=True).encode()).hexdigest()[:24]
+
+
+def _readable_folder() -> Path:
+    """The cache folder of readable forms: keyed by the code that makes them (the formula
+    module, the operation table, the law class) and SymPy's version."""
+    import hashlib
+    from importlib.metadata import version
+
+    from descent_fmus.models.controllers import operation_table
+    from descent_fmus.synthesis.methods import law, law_formula
+    from descent_fmus.synthesis.paths import cache_dir
+    h = hashlib.sha256(version("sympy").encode())
+    for module in (law_formula, operation_table, law):
+        h.update(Path(module.__file__).read_bytes())
+    return cache_dir() / f"readable-{h.hexdigest()[:16]}"
+
+
+def prefetch_readable(laws, processes: int | None = None, meanwhile=None) -> None:
+    """Make the readable forms of ``laws`` ready for :func:`readable_text` and
+    :func:`law_document`: read from the cache folder (:func:`_readable_folder`), the others
+    computed -- across ``processes`` worker processes (default: one per
+    :data:`LAWS_PER_PROCESS` laws, at most one per core; ``meanwhile()`` runs here while they
+    work, or first) -- and kept there."""
+    folder = _readable_folder()
+    todo = {}
+    for law in laws:
+        key = _law_key(law)
+        if key is None or key in _READABLE or key in todo:
+            continue
+        try:
+            _READABLE[key] = json.loads((folder / f"{key}.json").read_text())
+        except (OSError, ValueError):
+            todo[key] = law
+    n = processes or min(os.cpu_count() or 1, len(todo) // LAWS_PER_PROCESS)
+    if n > 1:
+        done = _in_processes(list(todo.values()), n, meanwhile)
+    else:
+        if meanwhile is not None:
+            meanwhile()
+        done = [None] * len(todo)
+    for (key, law), d in zip(todo.items(), done):
+        _READABLE[key] = d = d if d is not None else _compute_readable(law)
+        if "error" not in d:
+            _keep(folder / f"{key}.json", d)
+
+
+def _in_processes(laws, n: int, meanwhile=None) -> list:
+    """:func:`_compute_readable` of ``laws`` in ``n`` forked processes (SymPy imported here
+    first, so that they start with it), ``meanwhile()`` run here while they work; Nones if
+    they cannot run (the caller computes those here)."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    import sympy  # noqa: F401
+    try:
+        with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork")) as pool:
+            done = pool.map(_compute_readable, laws, chunksize=max(1, -(-len(laws) // n)))
+            if meanwhile is not None:
+                meanwhile()
+            return list(done)
+    except (OSError, ValueError, RuntimeError):   # no fork or no processes here
+        return [None] * len(laws)
+
+
+def _keep(path: Path, d: dict) -> None:
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_name(f".{path.stem}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(d))
+        os.replace(tmp, path)
+    except OSError:               # a read-only cache: computed again next time
+        pass
 
 
 def readable_text(law) -> str:

@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from descent_fmus.synthesis.fmi.law_files import LawExport, choose_law_fmu, readable_text
+from descent_fmus.synthesis.fmi.law_files import (LawExport, choose_law_fmu, prefetch_readable,
+                                                  readable_text)
 from descent_fmus.synthesis.run.folder import write_json
 from descent_fmus.synthesis.run.guard import check_export_space
 from descent_fmus.synthesis.run.signals import check_stop
@@ -131,6 +132,8 @@ def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
     announce("writing the report")
     front = archive.sorted()
     laws = [cand.law for cand, _, _ in front]
+    # the figure's imports while the readable forms are computed in other processes
+    prefetch_readable(laws, meanwhile=_import_pyplot)
     rows = _rows(problem, front, evaluator.evaluate(laws).extras)
     fields = list(dict.fromkeys(key for r in rows for key in r))
     with open(out / "pareto.csv", "w", newline="") as fh:
@@ -198,6 +201,10 @@ def _export_laws(problem, rows, laws, what, out, fmu_dir, summary) -> None:
             r.update(f.result())
     finally:
         pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _import_pyplot() -> None:
+    import matplotlib.pyplot  # noqa: F401
 
 
 def plot_front(problem, rows, summary, path: Path) -> None:

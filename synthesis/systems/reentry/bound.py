@@ -75,11 +75,15 @@ class Program:
         return path
 
     @classmethod
+    def from_dict(cls, d: dict) -> "Program":
+        """The program of :meth:`to_dict`'s dictionary."""
+        return cls(np.asarray(d["u"], float), float(d["t_seg"]), d.get("J1", math.nan),
+                   d.get("miss", math.nan), d.get("t_land", math.nan), d.get("info", {}))
+
+    @classmethod
     def load(cls, path) -> "Program":
         try:
-            d = json.loads(Path(path).read_text())
-            return cls(np.asarray(d["u"], float), float(d["t_seg"]), d.get("J1", math.nan),
-                       d.get("miss", math.nan), d.get("t_land", math.nan), d.get("info", {}))
+            return cls.from_dict(json.loads(Path(path).read_text()))
         except (KeyError, TypeError, ValueError) as exc:
             raise ValueError(f"{path} is not a program file: {exc}") from None
 

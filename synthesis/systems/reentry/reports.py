@@ -75,25 +75,15 @@ BOUND_FILES = ("open_loop.json", "open_loop_1km.json")
 
 
 def _bound_key() -> str:
-    """What the bound depends on: the plant's and the bound's code, the entry conditions."""
-    import hashlib
-    import inspect
-    from dataclasses import asdict
-
-    from descent_fmus.models import integrators, reentry
-    from descent_fmus.models.reentry import ReentryParams
-    from descent_fmus.synthesis.methods import open_loop
-    from descent_fmus.synthesis.systems.reentry import bound
-    h = hashlib.sha256()
-    for module in (reentry, integrators, open_loop, bound):
-        h.update(inspect.getsource(module).encode())
-    h.update(repr((sorted(asdict(ReentryParams()).items()), ON_TARGET)).encode())
-    return h.hexdigest()[:20]
+    """What the bound depends on (:func:`.bound_data.bound_key`)."""
+    from descent_fmus.synthesis.systems.reentry.bound_data import bound_key
+    return bound_key()
 
 
 def bound_programs(compute: bool = True):
     """The best programs on the 1 s grid at zero miss and at miss <= 1 km (true-peak load;
-    :data:`BOUND_NAMES`), computed once (~30 s) and kept in the cache folder
+    :data:`BOUND_NAMES`), read from the package's shipped copy (:mod:`.bound_data`) or, when
+    that was solved under another content key, computed (~12 s), then kept in the cache folder
     (:func:`synthesis.paths.cache_dir`) under the content they depend on (the plant's and the
     bound's code, the entry conditions).  Returns ``(zero, tol, paths)``: the two
     :class:`~.bound.Program` and their files in the cache (None where nothing could be written);
@@ -106,7 +96,10 @@ def bound_programs(compute: bool = True):
     except (OSError, ValueError, KeyError):
         if not compute:
             return None
-    progs = reference_bounds(ON_TARGET)
+    from descent_fmus.synthesis.systems.reentry.bound_data import shipped_bounds
+    # [choice] the bounds shipped with the package under the same key (bound_data.py), else
+    # solved (~12 s): a fresh machine's first run reads them like a cached one
+    progs = shipped_bounds(_bound_key()) or reference_bounds(ON_TARGET)
     try:
         cached[0].parent.mkdir(parents=True, exist_ok=True)
         for prog, pth in zip(progs, cached):
