@@ -9,7 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FormSearch"]
+__all__ = ["FormSearch", "ISLAND_EPOCHS"]
+
+#: [choice] a new island is started only when the flights left hold this many epochs of the
+#: structure search (docs/methods/network_operator.md, "islands")
+ISLAND_EPOCHS = 3
 
 
 class FormSearch:
@@ -144,9 +148,12 @@ class FormSearch:
         member off the Pareto set gets new random variations and parameters drawn as the
         initial population's (half at random, half the best law's with a few bits flipped);
         ``'islands'``, :meth:`_next_island`."""
-        self.stats["restarts"] = self.stats.get("restarts", 0) + 1
         if self.cfg.restart_from == "islands":
-            return self._next_island(best)
+            island = self._next_island(best)
+            if island is not None:
+                self.stats["restarts"] = self.stats.get("restarts", 0) + 1
+            return members if island is None else island
+        self.stats["restarts"] = self.stats.get("restarts", 0) + 1
         rng, n_bits = self.rng, self.params.n_bits
         for i, (m, lh) in enumerate(zip(members[1:], self.lh[1:])):
             if lh > 0:
@@ -165,9 +172,12 @@ class FormSearch:
         new population is drawn from the tuned basic solution as the initial one was (new
         structure draws: another basin); when an island stalls below the law kept aside, the
         search goes back to that law (a population drawn around it).  The stall mark starts
-        again with the new population."""
+        again with the new population.  None (no restart) when a new island is due but the
+        flights left cannot hold ``ISLAND_EPOCHS`` epochs: an island needs room to grow."""
         elite = self._elite
         if elite is None or not self.target.better(elite["f"], best.f, elite["cv"], best.cv):
+            if not self._island_room():
+                return None
             self._elite = {"psi": self.matrix(best), "bits": best.bits.copy(),
                            "f": best.f.copy(), "cv": best.cv}
             psi, bits = self._origin
@@ -181,6 +191,22 @@ class FormSearch:
         members[0].bits = bits.copy()
         self.stats["restart_mark"], self.stats["stall"] = None, 0
         return members
+
+    def _island_over(self, best) -> bool:
+        """Whether an island running below the law kept aside must give the flights left to
+        that law: they no longer hold ``ISLAND_EPOCHS`` epochs (the last epochs go to the
+        best basin found)."""
+        e = self._elite
+        return e is not None and not self._island_room() and self.target.better(
+            e["f"], best.f, e["cv"], best.cv)
+
+    def _island_room(self) -> bool:
+        """Whether the flights left (none counted: yes) hold ``ISLAND_EPOCHS`` epochs of the
+        structure search (each its children and the refinement after it)."""
+        if not self.flights:
+            return True
+        epoch = self.cfg.epoch * 4 * self.cfg.crossovers + self.refine_cfg.epoch_evals()
+        return self.flights - self.evaluations >= ISLAND_EPOCHS * epoch
 
     def _island_state(self) -> dict:
         """The islands' part of the checkpoint."""

@@ -339,7 +339,7 @@ class VariationalGA(FormSearch, Method):
         self.q0 = self.params.decode(best.bits)
         members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]
         members += [_Member(list(m.variations), m.bits.copy()) for m in self.pop[1:]]
-        if self._stalled(best):
+        if self._stalled(best) or self._island_over(best):
             members = self._restart(members, best)
         return members
 

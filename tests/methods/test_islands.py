@@ -109,6 +109,28 @@ def test_an_island_starts_at_the_basic_solution_and_goes_back_to_the_best_law():
     assert ga.stats["islands"] == 2
 
 
+def test_an_island_needs_room_for_three_epochs():
+    ga = _ga(5, None)
+    ga.refine_cfg = RefineConfig(basis=0, evals=0, forms=0)      # an epoch: its 80 children
+    ga.tell(_basis_best([c.law for c in ga.ask()]))
+    ga._origin = (BASIC.psi.copy(), ga.pop[0].bits.copy())
+    members = [ga.pop[k] for k in range(16)]
+    # 5 generations x 4 crossovers x 4 children = 80 a epoch, 3 epochs 240 (hand count)
+    ga.flights, ga.evaluations = 1000, 761                     # 239 left: no island
+    assert ga._restart(members, ga.pop[0]) is members and "restarts" not in ga.stats
+    ga.evaluations = 760                                       # 240 left: an island
+    assert ga._restart(members, ga.pop[0]) is not members and ga.stats["islands"] == 1
+    # an island running below the law kept aside (value 1) is over when the flights left no
+    # longer hold 3 epochs, stalled or not; going back to that law needs no room
+    worse = ga.pop[1]
+    worse.f = np.array([5.0, 0.0])
+    assert not ga._island_over(worse)                          # 240 left: the island goes on
+    ga.evaluations = 999
+    assert ga._island_over(worse) and not ga._island_over(ga.pop[0])   # not if it is better
+    assert ga._restart(members, worse) is not members and ga.stats["restarts"] == 2
+    assert ga._elite is None and not ga._island_over(worse)
+
+
 def test_the_epoch_log_counts_the_population_as_designed():
     ga = _ga(5, None)
     ga.tell(_basis_best([c.law for c in ga.ask()]))               # the initial population
