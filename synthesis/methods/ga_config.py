@@ -51,10 +51,11 @@ class GAConfig:
                                      "every member off the Pareto set is drawn anew around "
                                      "the best law (variations and parameters; 0 = never)",
                                   0, 1_000_000)
-    stall_gain: float = setting(1e-3, "an epoch whose best law by the target beats the "
+    # [choice] islands after a 10 % stall: docs/methods/network_operator.md "islands"
+    stall_gain: float = setting(0.1, "an epoch whose best law by the target beats the "
                                       "best at the last mark by less than this share counts "
                                       "as a stalled one (restart_epochs)", 0.0, 1.0)
-    restart_from: str = setting("best", "where a restart of a stalled structure search "
+    restart_from: str = setting("islands", "where a restart of a stalled structure search "
                                 "starts: 'best' (new members around the best law) or "
                                 "'islands' (a new population from the basic solution, and "
                                 "back to the run's best law when that one stalls below it)",
