@@ -25,8 +25,7 @@ def read(run: Path) -> dict:
     if not ck.is_file():
         raise ValueError(f"{run}: no checkpoint.json (not a synthesis run folder)")
     st = json.loads(ck.read_text())
-    stats = st.get("method", st).get("stats", {}) if isinstance(st.get("method"), dict) \
-        else st.get("stats", {})
+    stats = (st.get("method") or {}).get("stats", {})
     curve = st.get("curve", [])
     summary = run / "summary.json"
     if summary.is_file():
