@@ -47,9 +47,9 @@ class GAConfig:
     basis_q: float = setting(0.0, "probability that a child takes the basic solution's "
                                   "parameters instead of its parents' (a variation of the "
                                   "structure flown with the tuned parameters)", 0.0, 1.0)
-    restart_epochs: int = setting(2, "epochs without a better law by the target after which "
-                                     "every member off the Pareto set is drawn anew around "
-                                     "the best law (variations and parameters; 0 = never)",
+    restart_epochs: int = setting(2, "epochs without a better law by the target (by "
+                                     "stall_gain) after which the structure search restarts "
+                                     "(restart_from; 0 = never)",
                                   0, 1_000_000)
     # [choice] islands after a 10 % stall: docs/methods/network_operator.md "islands"
     stall_gain: float = setting(0.1, "an epoch whose best law by the target beats the "
