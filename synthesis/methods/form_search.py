@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FormSearch", "RESTART_GAIN"]
+__all__ = ["FormSearch", "ISLAND_EPOCHS"]
 
-#: [choice] an epoch whose best law beats the best at the last mark by less than this share
-#: counts as a stalled one (``restart_epochs``)
-RESTART_GAIN = 1e-3
+#: [choice] a new island is started only when the flights left hold this many epochs of the
+#: structure search (docs/methods/network_operator.md, "islands")
+ISLAND_EPOCHS = 3
 
 
 class FormSearch:
@@ -101,6 +101,31 @@ class FormSearch:
         epoch = self.cfg.epoch * 4 * self.cfg.crossovers + cfg.epoch_evals()
         return max(0, left) if left < epoch else 0
 
+    def _log_epoch(self, k: int) -> None:
+        """One row of ``stats["epochs"]`` at every epoch (member ``k`` the best law by the
+        target): generation, evaluations, the best law's target value, the population's
+        diversity (distinct structures, the share of members with the best law's structure,
+        the mean number of matrix entries in which a member differs from the best law's) and
+        the children flown and accepted into the population since the previous epoch.  Reads
+        no random numbers: a run with the log is the run without it."""
+        st, pop = self.stats, self.pop
+        best = self.matrix(pop[k])
+        keys = [self._structure_key(m) for m in pop]
+        dist = [int(np.count_nonzero(self.matrix(m) != best)) for m in pop]
+        log = st.setdefault("epochs", [])
+        last = log[-1] if log else {"children": 0, "accepted": 0}
+        log.append({"gen": int(self.generation), "evals": int(self.evaluations),
+                    "best": float(pop[k].f[self.target.objective]),
+                    "forms": len(set(keys)),
+                    "share_best": round(keys.count(keys[k]) / len(pop), 4),
+                    "dist": round(float(np.mean(dist)), 3),
+                    "children": st.get("children", 0) - last.get("children_total", 0),
+                    "accepted": st.get("accepted", 0) - last.get("accepted_total", 0),
+                    "children_total": st.get("children", 0),
+                    "accepted_total": st.get("accepted", 0),
+                    "restarts": st.get("restarts", 0),
+                    "islands": st.get("islands", 0)})
+
     def _stalled(self, best) -> bool:
         """Whether the best law by the target has not improved for ``restart_epochs`` epochs
         (then counted from 0 again)."""
@@ -109,7 +134,7 @@ class FormSearch:
         key = self.target.keys(best.f[None, :], [best.cv])[0]
         mark = self.stats.get("restart_mark")
         if mark is None or key[0] < mark[0] or (key[0] == mark[0] and key[1] < mark[1]
-                                                  - RESTART_GAIN * abs(mark[1])):
+                                                  - self.cfg.stall_gain * abs(mark[1])):
             self.stats["restart_mark"], self.stats["stall"] = list(key), 0
             return False
         self.stats["stall"] = self.stats.get("stall", 0) + 1
@@ -118,10 +143,17 @@ class FormSearch:
         self.stats["stall"] = 0
         return True
 
-    def _restart(self, members, best) -> None:
-        """A restart of the structure search around the best law: every member off the Pareto
-        set gets new random variations and parameters drawn as the initial population's (half
-        at random, half the basis's with a few bits flipped)."""
+    def _restart(self, members, best) -> list:
+        """The members of the next epoch after a stall (``restart_from``): ``'best'``, every
+        member off the Pareto set gets new random variations and parameters drawn as the
+        initial population's (half at random, half the best law's with a few bits flipped);
+        ``'islands'``, :meth:`_next_island`."""
+        if self.cfg.restart_from == "islands":
+            island = self._next_island(best)
+            if island is not None:
+                self.stats["restarts"] = self.stats.get("restarts", 0) + 1
+            return members if island is None else island
+        self.stats["restarts"] = self.stats.get("restarts", 0) + 1
         rng, n_bits = self.rng, self.params.n_bits
         for i, (m, lh) in enumerate(zip(members[1:], self.lh[1:])):
             if lh > 0:
@@ -132,4 +164,63 @@ class FormSearch:
                     m.bits = best.bits.copy()
                     for k in rng.integers(0, n_bits, 1 + int(rng.integers(0, 4))):
                         m.bits[k] ^= 1
-        self.stats["restarts"] = self.stats.get("restarts", 0) + 1
+        return members
+
+    def _next_island(self, best) -> list:
+        """Islands in turn: when the stalled population's best law ``best`` is the run's best
+        (no island running, or the island beat the law it left), that law is kept aside and a
+        new population is drawn from the tuned basic solution as the initial one was (new
+        structure draws: another basin); when an island stalls below the law kept aside, the
+        search goes back to that law (a population drawn around it).  The stall mark starts
+        again with the new population.  None (no restart) when a new island is due but the
+        flights left cannot hold ``ISLAND_EPOCHS`` epochs: an island needs room to grow."""
+        elite = self._elite
+        if elite is None or not self.target.better(elite["f"], best.f, elite["cv"], best.cv):
+            if not self._island_room():
+                return None
+            self._elite = {"psi": self.matrix(best), "bits": best.bits.copy(),
+                           "f": best.f.copy(), "cv": best.cv}
+            psi, bits = self._origin
+            self.stats["islands"] = self.stats.get("islands", 0) + 1
+        else:
+            psi, bits = elite["psi"], elite["bits"]
+            self._elite = None
+        self.psi0 = np.array(psi, dtype=int)
+        self.q0 = self.params.decode(bits)
+        members = self._initial_members()
+        members[0].bits = bits.copy()
+        self.stats["restart_mark"], self.stats["stall"] = None, 0
+        return members
+
+    def _island_over(self, best) -> bool:
+        """Whether an island running below the law kept aside must give the flights left to
+        that law: they no longer hold ``ISLAND_EPOCHS`` epochs (the last epochs go to the
+        best basin found)."""
+        e = self._elite
+        return e is not None and not self._island_room() and self.target.better(
+            e["f"], best.f, e["cv"], best.cv)
+
+    def _island_room(self) -> bool:
+        """Whether the flights left (none counted: yes) hold ``ISLAND_EPOCHS`` epochs of the
+        structure search (each its children and the refinement after it)."""
+        if not self.flights:
+            return True
+        epoch = self.cfg.epoch * 4 * self.cfg.crossovers + self.refine_cfg.epoch_evals()
+        return self.flights - self.evaluations >= ISLAND_EPOCHS * epoch
+
+    def _island_state(self) -> dict:
+        """The islands' part of the checkpoint."""
+        from descent_fmus.synthesis.methods.encoding import bits_text
+        o, e = self._origin, self._elite
+        return {"origin": None if o is None else [o[0].tolist(), bits_text(o[1])],
+                "elite": None if e is None else {"psi": np.asarray(e["psi"]).tolist(),
+                                                 "b": bits_text(e["bits"]),
+                                                 "f": e["f"].tolist(), "cv": e["cv"]}}
+
+    def _load_island_state(self, st: dict) -> None:
+        from descent_fmus.synthesis.methods.encoding import bits_array
+        o, e = st.get("origin"), st.get("elite")
+        self._origin = None if o is None else (np.array(o[0], dtype=int), bits_array(o[1]))
+        self._elite = None if e is None else {"psi": np.array(e["psi"], dtype=int),
+                                              "bits": bits_array(e["b"]),
+                                              "f": np.array(e["f"], float), "cv": e["cv"]}

@@ -47,10 +47,19 @@ class GAConfig:
     basis_q: float = setting(0.0, "probability that a child takes the basic solution's "
                                   "parameters instead of its parents' (a variation of the "
                                   "structure flown with the tuned parameters)", 0.0, 1.0)
-    restart_epochs: int = setting(2, "epochs without a better law by the target after which "
-                                     "every member off the Pareto set is drawn anew around "
-                                     "the best law (variations and parameters; 0 = never)",
+    restart_epochs: int = setting(2, "epochs without a better law by the target (by "
+                                     "stall_gain) after which the structure search restarts "
+                                     "(restart_from; 0 = never)",
                                   0, 1_000_000)
+    # [choice] islands after a 10 % stall: docs/methods/network_operator.md "islands"
+    stall_gain: float = setting(0.1, "an epoch whose best law by the target beats the "
+                                      "best at the last mark by less than this share counts "
+                                      "as a stalled one (restart_epochs)", 0.0, 1.0)
+    restart_from: str = setting("islands", "where a restart of a stalled structure search "
+                                "starts: 'best' (new members around the best law) or "
+                                "'islands' (a new population from the basic solution, and "
+                                "back to the run's best law when that one stalls below it)",
+                                choices=("best", "islands"))
     equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
                                           "flown before is recognised and not flown again "
                                           "(0 = off)", 0, 256)

@@ -117,6 +117,8 @@ class VariationalGA(FormSearch, Method):
         self.rescale = None
         self._basis_refining = False
         self._template = None          # the decoding law after a rescale (its dict)
+        self._origin = None            # (matrix, bits) of the tuned basic solution
+        self._elite = None             # islands: the run's best law while an island runs
 
     def _initial_members(self) -> list:
         params, rng, structure, lchr = self.params, self.rng, self.structure, self._lchr
@@ -309,6 +311,7 @@ class VariationalGA(FormSearch, Method):
         else:
             w = int(cand[0])
         self._replace(w, child)
+        self.stats["accepted"] = self.stats.get("accepted", 0) + 1
 
     # -- epoch ----------------------------------------------------------------------------
     def _best_compromise(self) -> int:
@@ -328,12 +331,16 @@ class VariationalGA(FormSearch, Method):
             if self.cfg.basis_rule == "target" and self.target is not None \
             else self._best_compromise()
         best = self.pop[k]
+        if self.target is not None:
+            self._log_epoch(k)
+        if self._origin is None:        # the tuned basic solution, where islands start
+            self._origin = (self.psi0.copy(), self.pop[0].bits.copy())
         self.psi0 = self.matrix(best)
         self.q0 = self.params.decode(best.bits)
         members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]
         members += [_Member(list(m.variations), m.bits.copy()) for m in self.pop[1:]]
-        if self._stalled(best):
-            self._restart(members, best)
+        if self._stalled(best) or self._island_over(best):
+            members = self._restart(members, best)
         return members
 
     def _trim_candidates(self) -> list:
@@ -433,7 +440,7 @@ class VariationalGA(FormSearch, Method):
             "refine_due": self._refine_due,
             "refine": None if self.refinement is None else self.refinement.state(),
             "template": self._template, "basis_refining": self._basis_refining,
-            "stats": self.stats,
+            "stats": self.stats, **self._island_state(),
         }
 
     def load_state(self, st: dict) -> "VariationalGA":
@@ -454,6 +461,7 @@ class VariationalGA(FormSearch, Method):
         self._template = st.get("template")
         self._basis_refining = st.get("basis_refining", False)
         self.stats = dict(st.get("stats", {}))
+        self._load_island_state(st)
         if self._template is not None:
             from descent_fmus.synthesis.methods.law import NetworkOperator
             self.decode = NetworkOperator.from_dict(self._template).with_structure

@@ -156,7 +156,11 @@ def test_short_run_on_a_double_integrator_finds_a_switching_law():
     structure = StructureCodec(basic.size, basic.nx + len(basic.q), PAPER_UNARY, PAPER_BINARY)
     ga = VariationalGA(GrayCodec(len(basic.q), 6, 26, -32.0, 32.0), basic.q,
                        np.random.default_rng(1),
-                       GAConfig(population=32, crossovers=8, lchr=4, epoch=5), structure,
+                       # restarts around the best law (the previous rule): islands start
+                       # here from the third epoch (an epoch is 220 flights) and seed 1 then
+                       # ends on a law without a switching operation (measured)
+                       GAConfig(population=32, crossovers=8, lchr=4, epoch=5,
+                                restart_from="best", stall_gain=1e-3), structure,
                        basic.psi, basic.with_structure, target=Target(0),
                        # forms=0: one law refined per epoch; with the default 4 forms this
                        # short run's 60 evaluations give each new form 15, and seed 1 keeps a
@@ -197,7 +201,8 @@ def _stall_ga(seed: int, generations: int, restart_epochs: int = 2):
     ga = VariationalGA(GrayCodec(len(basic.q), 6, 26, -32.0, 32.0), basic.q,
                        np.random.default_rng(seed),
                        GAConfig(population=16, crossovers=4, lchr=4, epoch=5,
-                                restart_epochs=restart_epochs),
+                                restart_epochs=restart_epochs, restart_from="best",
+                                stall_gain=1e-3),       # the previous release's rule
                        StructureCodec(basic.size, basic.nx + len(basic.q)), basic.psi,
                        basic.with_structure, target=Target(0),
                        refine=RefineConfig(basis=0, evals=0), generations=generations)
