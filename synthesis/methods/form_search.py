@@ -58,11 +58,15 @@ class FormSearch:
         """The ``n`` best members by the target with distinct structures; with ``forms``, also
         distinct objectives (two members with equal objectives most often fly one law) and,
         after the best member, only forms whose parameters were not tuned before (new
-        forms)."""
+        forms).  With ``pick = 'spread'`` the new forms after the best member are taken at
+        evenly spaced ranks of all the eligible ones (the first of them, then on down the
+        order) instead of the top ones: a new form is judged with its parents' parameters,
+        tuned for another form."""
         picks, seen, values = [], set(), set()
         forms = self.refine_cfg.forms
+        spread = forms and self.refine_cfg.pick == "spread"
         for k in self.target.order(self.F, self.CV):
-            if len(picks) >= n:
+            if len(picks) >= n and not spread:
                 break
             m = self.pop[int(k)]
             key, f = self._structure_key(m), (m.cv, *m.f.tolist())
@@ -72,7 +76,11 @@ class FormSearch:
             seen.add(key)
             values.add(f)
             picks.append(int(k))
-        return picks
+        if not spread or len(picks) <= n:
+            return picks[:n]
+        rest = picks[1:]
+        ranks = np.floor(np.arange(n - 1) * len(rest) / (n - 1)).astype(int)
+        return [picks[0]] + [rest[int(r)] for r in ranks]
 
     def _fresh_starts(self, starts: list) -> list:
         """``starts`` (``(index, member, structure key)``) with ``form_starts - 1`` fresh
