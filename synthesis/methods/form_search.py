@@ -64,7 +64,7 @@ class FormSearch:
         tuned for another form."""
         picks, seen, values = [], set(), set()
         forms = self.refine_cfg.forms
-        spread = forms and self.refine_cfg.pick == "spread"
+        spread = forms and self._spread_picks()
         for k in self.target.order(self.F, self.CV):
             if len(picks) >= n and not spread:
                 break
@@ -76,11 +76,31 @@ class FormSearch:
             seen.add(key)
             values.add(f)
             picks.append(int(k))
-        if not spread or len(picks) <= n:
-            return picks[:n]
-        rest = picks[1:]
-        ranks = np.floor(np.arange(n - 1) * len(rest) / (n - 1)).astype(int)
-        return [picks[0]] + [rest[int(r)] for r in ranks]
+        if spread and len(picks) > n:
+            rest = picks[1:]
+            ranks = np.floor(np.arange(n - 1) * len(rest) / (n - 1)).astype(int)
+            picks = [picks[0]] + [rest[int(r)] for r in ranks]
+        picks = picks[:n]
+        if forms:
+            self.stats["new_form_picks"] = [self._structure_key(self.pop[k])
+                                            for k in picks[1:]]
+        return picks
+
+    def _spread_picks(self) -> bool:
+        """Whether this epoch's halving spreads its new forms (``pick``): always ('spread'),
+        never ('best'), or ('adaptive') when the best law now is none of the new forms the
+        last halving tuned (they did not win: look further down the order); the first
+        halving takes the top ones."""
+        pick = self.refine_cfg.pick
+        if pick != "adaptive":
+            return pick == "spread"
+        last = self.stats.get("new_form_picks")
+        if not last or self.target is None:
+            return False
+        best = self.pop[int(self.target.order(self.F, self.CV)[0])]
+        spread = self._structure_key(best) not in last
+        self.stats["spread_epochs"] = self.stats.get("spread_epochs", 0) + int(spread)
+        return spread
 
     def _fresh_starts(self, starts: list) -> list:
         """``starts`` (``(index, member, structure key)``) with ``form_starts - 1`` fresh

@@ -37,3 +37,24 @@ def test_spread_picks_the_best_then_evenly_spaced_new_forms():
 def test_pick_is_checked():
     with pytest.raises(SettingError, match="refine.pick"):
         RefineConfig(pick="random")
+
+
+def test_adaptive_spreads_only_after_the_tuned_new_forms_lost():
+    ga, psi0 = _stall_ga(5, 10)
+    ga.tell(_stalled_objectives(psi0)([c.law for c in ga.ask()]))        # initial population
+    order = _eligible(ga)
+    ga.refine_cfg = RefineConfig(basis=0, evals=40, forms=4, pick="adaptive")
+    ga.stats.pop("new_form_picks", None)
+    top = ga._promising(4)
+    assert top == order[:4]                 # the first halving: the top new forms
+    # it recorded the new forms it picked (not the best member)
+    assert ga.stats["new_form_picks"] == [ga._structure_key(ga.pop[k]) for k in order[1:4]]
+    # the best law now is one of them (a new form won): the top ones again
+    ga.stats["new_form_picks"] = [ga._structure_key(ga.pop[order[0]])]
+    assert ga._promising(4) == order[:4]
+    # the best law is none of them (they lost): spread, as 'spread' picks
+    ga.stats["new_form_picks"] = ["not a structure of the population"]
+    spread = ga._promising(4)
+    ga.refine_cfg = dataclasses.replace(ga.refine_cfg, pick="spread")
+    assert spread == ga._promising(4) != order[:4]
+    assert ga.stats["spread_epochs"] == 1
