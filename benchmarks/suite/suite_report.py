@@ -40,9 +40,10 @@ def print_table(table: dict, seeds, at=()) -> None:
             per = ", ".join(_fmt(v) for v in r["values"])
             print(f"  {r['method']:18s} {_fmt(r['median'], 7):>11s} {_fmt(r['ratio'], 5):>9s}"
                   f"  {per}" + (f"  [{r['details']}]" if r.get("details") else ""))
-        for n in at:
+        for n in at:                     # a run shorter than n flights has no value there
             for r in t["rows"]:
-                vals = [value_at(r["curves"].get(s, []), n) for s in seeds]
+                vals = [value_at(r["curves"].get(s, []), n) if (f or 0) >= n else math.nan
+                        for s, f in zip(seeds, r["flights"])]
                 print(f"  at {n} flights: {r['method']:18s} median {_fmt(_median(vals), 7)}"
                       f"  per seed {', '.join(_fmt(v) for v in vals)}")
         v = t["verdict"]
