@@ -211,6 +211,9 @@ def main(argv=None):
                     help="a recipe setting of every network-operator run, named as in "
                          "synthesize's options (refine_basis_patience=0, lchr=12; "
                          "repeatable): an A/B of the recipe, in its own --out")
+    ap.add_argument("--at", type=int, nargs="+", default=[], metavar="FLIGHTS",
+                    help="also print each method's values at these flight counts, read off "
+                         "its runs' learning curves (e.g. --at 5000 20000)")
     ap.add_argument("--job", help=argparse.SUPPRESS)        # one run (the runner's child)
     args = ap.parse_args(argv)
     if args.job:
@@ -240,7 +243,7 @@ def main(argv=None):
         for half, title in split.HALVES:
             if parts[half]:
                 print(f"\n######## {title}: {', '.join(parts[half])}")
-                print_table(parts[half], args.seeds)
+                print_table(parts[half], args.seeds, args.at)
         if not args.no_run:
             print(f"\nwall time of this invocation: {wall:.0f} s ({os.cpu_count()} cores)")
     if args.plot:

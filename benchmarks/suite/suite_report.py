@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from suite_table import CLEARLY, NETWORK_OPERATOR, NOP_LCHR0
+from suite_table import CLEARLY, NETWORK_OPERATOR, NOP_LCHR0, _median, value_at
 
 __all__ = ["print_table", "plot", "figure_path"]
 
@@ -26,7 +26,9 @@ def _fmt(v, digits=5) -> str:
     return f"{v:.{digits}g}"
 
 
-def print_table(table: dict, seeds) -> None:
+def print_table(table: dict, seeds, at=()) -> None:
+    """Every problem's rows; ``at`` (flight counts): each method's values read off its runs'
+    learning curves at those budgets (:func:`suite_table.value_at`) as well."""
     for name, t in table.items():
         print(f"\n== {name}: reference {_fmt(t['reference'], 7)} ({t['reference_label']}); "
               f"goal: {t['goal']}")
@@ -38,6 +40,12 @@ def print_table(table: dict, seeds) -> None:
             per = ", ".join(_fmt(v) for v in r["values"])
             print(f"  {r['method']:18s} {_fmt(r['median'], 7):>11s} {_fmt(r['ratio'], 5):>9s}"
                   f"  {per}" + (f"  [{r['details']}]" if r.get("details") else ""))
+        for n in at:                     # a run shorter than n flights has no value there
+            for r in t["rows"]:
+                vals = [value_at(r["curves"].get(s, []), n) if (f or 0) >= n else math.nan
+                        for s, f in zip(seeds, r["flights"])]
+                print(f"  at {n} flights: {r['method']:18s} median {_fmt(_median(vals), 7)}"
+                      f"  per seed {', '.join(_fmt(v) for v in vals)}")
         v = t["verdict"]
         if "best_baseline" in v:
             print(f"  network operator / best baseline ({v['best_baseline']}): "

@@ -55,6 +55,15 @@ def best_of(summary: dict) -> float:
     return float(c[-1][1]) if c else math.nan
 
 
+def value_at(curve, flights: int) -> float:
+    """The best value of a run's learning curve after at most ``flights`` flights (NaN before
+    its first point): what the run had found at that budget.  A method that does not read its
+    budget (GP: generations until the flights end) gives at N flights of a longer run what a
+    run of budget N gives, up to the generation that straddles N (not counted here)."""
+    vals = [float(v) for n, v in curve if n <= flights]
+    return vals[-1] if vals else math.nan
+
+
 def _median(values) -> float:
     """The median, a run without a feasible law (NaN) counting as the worst (inf)."""
     return statistics.median([v if v == v else math.inf for v in values]) if values \

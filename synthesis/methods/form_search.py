@@ -58,11 +58,15 @@ class FormSearch:
         """The ``n`` best members by the target with distinct structures; with ``forms``, also
         distinct objectives (two members with equal objectives most often fly one law) and,
         after the best member, only forms whose parameters were not tuned before (new
-        forms)."""
+        forms).  With ``pick = 'spread'`` the new forms after the best member are taken at
+        evenly spaced ranks of all the eligible ones (the first of them, then on down the
+        order) instead of the top ones: a new form is judged with its parents' parameters,
+        tuned for another form."""
         picks, seen, values = [], set(), set()
         forms = self.refine_cfg.forms
+        spread = forms and self._spread_picks()
         for k in self.target.order(self.F, self.CV):
-            if len(picks) >= n:
+            if len(picks) >= n and not spread:
                 break
             m = self.pop[int(k)]
             key, f = self._structure_key(m), (m.cv, *m.f.tolist())
@@ -72,7 +76,31 @@ class FormSearch:
             seen.add(key)
             values.add(f)
             picks.append(int(k))
+        if spread and len(picks) > n:
+            rest = picks[1:]
+            ranks = np.floor(np.arange(n - 1) * len(rest) / (n - 1)).astype(int)
+            picks = [picks[0]] + [rest[int(r)] for r in ranks]
+        picks = picks[:n]
+        if forms:
+            self.stats["new_form_picks"] = [self._structure_key(self.pop[k])
+                                            for k in picks[1:]]
         return picks
+
+    def _spread_picks(self) -> bool:
+        """Whether this epoch's halving spreads its new forms (``pick``): always ('spread'),
+        never ('best'), or ('adaptive') when the best law now is none of the new forms the
+        last halving tuned (they did not win: look further down the order); the first
+        halving takes the top ones."""
+        pick = self.refine_cfg.pick
+        if pick != "adaptive":
+            return pick == "spread"
+        last = self.stats.get("new_form_picks")
+        if not last or self.target is None:
+            return False
+        best = self.pop[int(self.target.order(self.F, self.CV)[0])]
+        spread = self._structure_key(best) not in last
+        self.stats["spread_epochs"] = self.stats.get("spread_epochs", 0) + int(spread)
+        return spread
 
     def _fresh_starts(self, starts: list) -> list:
         """``starts`` (``(index, member, structure key)``) with ``form_starts - 1`` fresh

@@ -77,6 +77,14 @@ class RefineConfig:
                                   "from its own parameters and from form_starts - 1 random "
                                   "ones (drawn as the initial population's); the best counts",
                                1, 16)
+    pick: str = setting("best", "which new forms the halving tunes after the best member: "
+                                "'best' (the best by the target with its inherited "
+                                "parameters), 'spread' (at evenly spaced ranks of the new "
+                                "forms by the target: a form's untuned value is a poor guide "
+                                "to its tuned one) or 'adaptive' ('best' until an epoch's "
+                                "best law is none of the new forms tuned after the epoch "
+                                "before, then 'spread')",
+                        choices=("best", "spread", "adaptive"))
     rest: int = setting(0, "when the flights left after an epoch's refinement cannot hold "
                            "one more epoch, the refinement's winner goes on with them (its "
                            "last rung takes the rest; 0 = the GA goes on; with `forms` only)",
