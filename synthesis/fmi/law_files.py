@@ -18,6 +18,9 @@ from __future__ import annotations
 
 import json
 import os
+import signal
+import threading
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -86,9 +89,43 @@ def choose_law_fmu(law_fmu: str = "auto") -> tuple[str, str]:
                       "as pythonfmu controller FMUs, which need Python in the host")
 
 
+#: [choice] Seconds SymPy may take over one law's readable form.  Its automatic evaluation of
+#: some laws (nested powers of sums, as genetic programming grows them: each ``tanh``/``sin``
+#: asks whether its argument is zero, and SymPy expands the powers to answer) ran for minutes
+#: without end in a run's report; a law usually takes 30-50 ms.  Past the limit the law's
+#: network-operator print stands in (its ``error`` says so) and is kept like any other form.
+READABLE_SECONDS = 3.0
+
+
+class ReadableTimeout(Exception):
+    """SymPy took longer than :data:`READABLE_SECONDS` over a law's readable form."""
+
+
+@contextmanager
+def _time_limit(seconds: float):
+    """Raise :class:`ReadableTimeout` in this block after ``seconds`` (a real-time timer: only
+    in the main thread, where signals are delivered; elsewhere no limit)."""
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal,
+                                                                                "setitimer"):
+        yield
+        return
+
+    def expired(signum, frame):
+        raise ReadableTimeout(f"SymPy took over {seconds:g} s")
+
+    previous = signal.signal(signal.SIGALRM, expired)
+    signal.setitimer(signal.ITIMER_REAL, seconds)
+    try:
+        yield
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0)
+        signal.signal(signal.SIGALRM, previous)
+
+
 def _compute_readable(law) -> dict:
     try:
-        return law.readable().to_dict()
+        with _time_limit(READABLE_SECONDS):
+            return law.readable().to_dict()
     except Exception as exc:   # SymPy failing on a pathological law: the law is still exported
         return {"text": law.formula(6), "error": f"{type(exc).__name__}: {exc}"}
 
@@ -165,7 +202,7 @@ def prefetch_readable(laws, processes: int | None = None, meanwhile=None) -> Non
         done = [None] * len(todo)
     for (key, law), d in zip(todo.items(), done):
         _READABLE[key] = d = d if d is not None else _compute_readable(law)
-        if "error" not in d:
+        if "error" not in d or d["error"].startswith(ReadableTimeout.__name__):
             _keep(folder / f"{key}.json", d)
 
 

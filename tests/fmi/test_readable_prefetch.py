@@ -83,3 +83,54 @@ def test_a_failing_formula_still_gives_the_network_operator_print(tmp_path, monk
     d = law_files.law_document(law)["readable"]
     assert d["text"] == law.formula(6) and d["error"].startswith("ZeroDivisionError")
     assert not law_files._readable_folder().exists()
+
+
+# A law genetic programming grew on the parking-box problem (cube of cubes of sums under tanh and
+# sin): SymPy's automatic evaluation of its readable form ran for minutes without end in a run's
+# report (over 20 s here each time it was tried).  Its arcs (source, target, operation; the
+# diagonal: binary operations) as the run stored them.
+_GROWN = {"nx": 3, "q": [0.2831632081399176], "outputs": [24, 25], "size": 25,
+          "bounds": [[-1.0, 1.0], [-1.0, 1.0]], "input_names": ["x", "y", "theta"],
+          "arcs": [[0, 4, 14], [0, 5, 1], [0, 6, 14], [0, 9, 1], [0, 13, 1], [0, 19, 1],
+                   [2, 6, 1], [2, 9, 1], [2, 14, 1], [2, 17, 1], [2, 24, 3], [3, 4, 14],
+                   [4, 4, 1], [4, 5, 1], [5, 5, 1], [5, 7, 14], [5, 10, 14], [6, 6, 1],
+                   [6, 7, 1], [6, 11, 1], [7, 7, 1], [7, 8, 14], [8, 8, 1], [8, 16, 14],
+                   [9, 9, 1], [9, 10, 14], [10, 10, 1], [10, 12, 14], [11, 11, 1], [11, 12, 1],
+                   [12, 12, 1], [12, 13, 1], [13, 13, 2], [13, 15, 14], [14, 14, 1],
+                   [14, 15, 1], [15, 15, 1], [15, 16, 1], [16, 16, 1], [16, 18, 1],
+                   [17, 17, 1], [17, 18, 1], [18, 18, 1], [18, 19, 1], [19, 19, 1],
+                   [19, 20, 3], [20, 20, 1], [20, 21, 8], [21, 21, 1], [21, 22, 8],
+                   [22, 22, 1], [22, 23, 12], [23, 23, 1], [24, 24, 1]]}
+
+
+def _grown() -> NetworkOperator:
+    d = dict(_GROWN)
+    n = d.pop("size")
+    psi = np.zeros((n, n), dtype=int)
+    for i, j, op in d.pop("arcs"):
+        psi[i, j] = op
+    return NetworkOperator.from_dict({**d, "psi": psi.tolist()})
+
+
+def test_a_law_sympy_cannot_finish_gets_its_network_operator_print(tmp_path, monkeypatch):
+    # oracle: the law's own network-operator print (law.formula), the report's stand-in for a
+    # form SymPy could not give; the limit made short so that the test stays short (SymPy takes
+    # over 20 s on this law, 40 x the limit here)
+    monkeypatch.setenv("DESCENT_FMUS_CACHE", str(tmp_path))
+    monkeypatch.setattr(law_files, "_READABLE", {})
+    default = law_files.READABLE_SECONDS
+    monkeypatch.setattr(law_files, "READABLE_SECONDS", 0.5)
+    law = _grown()
+    law_files.prefetch_readable([law], processes=1)
+    d = law_files._readable(law)
+    assert d["text"] == law.formula(6)
+    assert d["error"].startswith("ReadableTimeout: SymPy took over 0.5 s")
+    # kept in the cache folder: the next run reads the stand-in instead of waiting again
+    monkeypatch.setattr(law_files, "_READABLE", {})
+    law_files.prefetch_readable([law], processes=1)
+    assert law_files._readable(law) == d and len(list(tmp_path.rglob("*.json"))) == 1
+    # a law SymPy finishes (in 30-50 ms) is untouched by the default limit: its form as
+    # computed alone
+    monkeypatch.setattr(law_files, "READABLE_SECONDS", default)
+    basic = _laws()[0]
+    assert law_files._readable(basic) == basic.readable().to_dict()
