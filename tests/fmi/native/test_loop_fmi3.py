@@ -28,7 +28,8 @@ from descent_fmus.synthesis.fmi.loop_fmi3 import (any_fmi3_variant, build_loop_v
                                                   is_closed_loop, loop_variant)
 from descent_fmus.synthesis.fmi.native.builders.fmi3 import NotNativeError, fmi3_variant
 from descent_fmus.synthesis.registry import closed_loop_specs
-from test_native_fmi3 import _fmpy_cli, _Host, _simulate
+from test_native_fmi3 import (_csv_of_fmi2_and_fmi3, _Host, _refused_start_value,
+                              _simulate, fmi3_pairs)
 
 pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (CI installs gcc)")
 
@@ -37,13 +38,8 @@ pytestmark = pytest.mark.skipif(find_compiler() is None, reason="no C compiler (
 def loops(fmu_dir, tmp_path_factory) -> dict:
     """name -> (FMI 2.0 native closed loop, its FMI 3.0 variant): the variants build_fmus.py
     wrote, or (an older build without them) made here."""
-    native = fmu_dir / "native"
-    fmi2 = [p for p in sorted(native.glob("*ClosedLoop.fmu")) if is_closed_loop(p)]
-    fmi3 = native / "fmi3"
-    if not all((fmi3 / p.name).is_file() for p in fmi2):
-        fmi3 = tmp_path_factory.mktemp("fmi3_loops")
-        build_loop_variants(fmi2, fmi3, say=lambda line: None)
-    return {p.stem: (p, fmi3 / p.name) for p in fmi2}
+    return fmi3_pairs(fmu_dir, tmp_path_factory, "*ClosedLoop.fmu", is_closed_loop,
+                      build_loop_variants)
 
 
 def test_every_native_loop_has_a_valid_fmi3_variant(loops):
@@ -91,17 +87,12 @@ def test_fmpy_simulate_cli_on_a_loop_variant(loops, tmp_path):
     # the fmpy command line: an output interval off the law's step gives the FMI 2.0 loop's CSV
     # to the byte; a component's bad start value is printed without --debug-logging
     fmu2, fmu3 = loops["ReentryClosedLoop"]
-    for fmu, csv in ((fmu2, tmp_path / "two.csv"), (fmu3, tmp_path / "three.csv")):
-        res = _fmpy_cli("simulate", fmu, "--output-interval", "0.1", "--output-file", csv)
-        assert res.returncode == 0, res.stderr
-    assert (tmp_path / "three.csv").read_bytes() == (tmp_path / "two.csv").read_bytes()
-    res = _fmpy_cli("simulate", fmu3, "--start-values", "m", "-5")
-    assert res.returncode != 0
-    assert "[ERROR] plant (Reentry): parameter m must be > 0, got -5.0" in res.stdout
-    res = _fmpy_cli("simulate", fmu3, "--start-values", "sample_period", "-1")
-    assert res.returncode != 0
+    two, three = _csv_of_fmi2_and_fmi3(fmu2, fmu3, tmp_path, "--output-interval", "0.1")
+    assert three == two
+    assert "[ERROR] plant (Reentry): parameter m must be > 0, got -5.0" in \
+        _refused_start_value(fmu3, "m", "-5")
     assert ("[ERROR] ReentryClosedLoop: sample_period must be finite and >= 0 (0: at the "
-            "loop's step), got -1 s") in res.stdout
+            "loop's step), got -1 s") in _refused_start_value(fmu3, "sample_period", "-1")
 
 
 def test_loop_variant_calls_and_messages(loops, tmp_path):

@@ -47,12 +47,19 @@ def pairs(fmu_dir, tmp_path_factory) -> dict:
     """name -> (FMI 2.0 native FMU, its FMI 3.0 variant), for every native FMU but the closed
     loops (test_loop_fmi3.py): the variants build_fmus.py wrote, or (an older build without
     them) made here."""
+    return fmi3_pairs(fmu_dir, tmp_path_factory, "*.fmu", is_native, build_fmi3_variants)
+
+
+def fmi3_pairs(fmu_dir, tmp_path_factory, pattern: str, accept, build) -> dict:
+    """name -> (FMI 2.0 native FMU, its FMI 3.0 variant) for the native FMUs matching
+    ``pattern`` that ``accept`` takes: the variants in ``native/fmi3/``, or, if any is missing,
+    all made by ``build`` in a temporary folder."""
     native = fmu_dir / "native"
-    fmi2 = [p for p in sorted(native.glob("*.fmu")) if is_native(p)]
+    fmi2 = [p for p in sorted(native.glob(pattern)) if accept(p)]
     fmi3 = native / "fmi3"
     if not all((fmi3 / p.name).is_file() for p in fmi2):
         fmi3 = tmp_path_factory.mktemp("fmi3")
-        build_fmi3_variants(fmi2, fmi3, say=lambda line: None)
+        build(fmi2, fmi3, say=lambda line: None)
     return {p.stem: (p, fmi3 / p.name) for p in fmi2}
 
 
@@ -182,17 +189,31 @@ def _fmpy_cli(*args) -> subprocess.CompletedProcess:
                           text=True, timeout=120)
 
 
+def _csv_of_fmi2_and_fmi3(fmu2, fmu3, folder: Path, *options) -> tuple:
+    """``fmpy simulate`` of both FMUs with ``options``: their CSV files' bytes."""
+    out = []
+    for fmu, csv in ((fmu2, folder / "two.csv"), (fmu3, folder / "three.csv")):
+        res = _fmpy_cli("simulate", fmu, *options, "--output-file", csv)
+        assert res.returncode == 0, res.stderr
+        out.append(csv.read_bytes())
+    return tuple(out)
+
+
+def _refused_start_value(fmu, name: str, value: str) -> str:
+    """``fmpy simulate`` with a bad start value (no --debug-logging): it fails; what it printed."""
+    res = _fmpy_cli("simulate", fmu, "--start-values", name, value)
+    assert res.returncode != 0
+    return res.stdout
+
+
 def test_fmpy_simulate_cli(pairs, tmp_path):
     # the fmpy command line runs a variant (the same CSV as the FMI 2.0 FMU's, to the byte)
     # and prints a bad start value's message without --debug-logging
     fmu2, fmu3 = pairs["Reentry"]
-    for fmu, csv in ((fmu2, tmp_path / "two.csv"), (fmu3, tmp_path / "three.csv")):
-        res = _fmpy_cli("simulate", fmu, "--stop-time", "30", "--output-file", csv)
-        assert res.returncode == 0, res.stderr
-    assert (tmp_path / "three.csv").read_bytes() == (tmp_path / "two.csv").read_bytes()
-    res = _fmpy_cli("simulate", fmu3, "--start-values", "m", "-5")
-    assert res.returncode != 0
-    assert "[ERROR] Reentry: parameter m must be > 0, got -5.0" in res.stdout
+    two, three = _csv_of_fmi2_and_fmi3(fmu2, fmu3, tmp_path, "--stop-time", "30")
+    assert three == two
+    assert "[ERROR] Reentry: parameter m must be > 0, got -5.0" in \
+        _refused_start_value(fmu3, "m", "-5")
 
 
 def test_fmpy_compile_rebuilds_a_variant(pairs, tmp_path):
