@@ -60,7 +60,10 @@ def test_a_too_narrow_parameter_range_is_reported(hopper_dir, fmu_dir, tmp_path)
     # that touch down softly need larger gains (the cma-linear baseline of the suite ends near
     # -12 and -3.9): the basis' CMA-ES runs into the range's edge, and the run says which
     # parameters sit there (within 1e-3 of the range's width, the report's rule)
+    # the plant with its native twin beside it (the C flights: the pythonfmu route of a problem
+    # file is flown by the build-plant and expression tests)
     shutil.copy(hopper_dir / "Hopper.fmu", tmp_path / "Hopper.fmu")
+    shutil.copytree(hopper_dir / "native", tmp_path / "native")
     f = _edit(hopper_dir / "hopper.toml", tmp_path / "narrow.toml", "q_range = [-64.0, 64.0]",
               "q_range = [-2.0, 2.0]")
     problem = load_problem_file(f, fmu_dir=fmu_dir).tuned(**SMALL, seed=1, refine_basis=60,
