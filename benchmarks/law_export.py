@@ -8,10 +8,12 @@ the way it did before (the same files with a law FMU compiled per law, 4 threads
 the export times and rates side by side (target: 100 laws <= 1 s).  The readable formulas
 (SymPy) are timed apart: a run computes them in its report (pareto.csv) before the export,
 which then finds them cached.  It also exports a few laws the full pythonfmu way (controller +
-closed-loop FMU + SSP) and times one closed-loop flight with the native law against the
-pythonfmu controller.
+closed-loop FMU + SSP), a few the way ``synthesize --export all`` does (native law FMU +
+closed-loop FMU + SSP, the archives written from their components' compressed members), and
+times one closed-loop flight with the native law against the pythonfmu controller.
 
-    python benchmarks/law_export.py [--laws 100] [--run DIR] [--fmus DIR] [--full 3] [--json]
+    python benchmarks/law_export.py [--laws 100] [--run DIR] [--fmus DIR] [--full 3]
+                                    [--closed 20] [--json]
 """
 from __future__ import annotations
 
@@ -78,6 +80,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--laws", type=int, default=100)
     ap.add_argument("--full", type=int, default=3, help="laws also exported the old way")
+    ap.add_argument("--closed", type=int, default=20,
+                    help="laws also exported with their closed loops (--export all)")
     ap.add_argument("--run", type=Path, default=None, help="a finished run: its Pareto laws")
     ap.add_argument("--fmus", type=Path, default=fmu_dir())
     ap.add_argument("--json", action="store_true")
@@ -126,6 +130,13 @@ def main(argv=None):
         out["full_python_s_per_law"] = t_full
         out["size_ratio_full_to_compact"] = full_per_law / (out["compact_total_MB"] * 2 ** 20
                                                             / len(laws))
+        t0 = time.perf_counter()
+        for k, law in enumerate(laws[:args.closed]):
+            export_law_files(law, tmp / "all" / str(k), law_fmu="native", fmu_dir=args.fmus,
+                             problem=problem, closed_loop=True, identifier=f"ReentryLaw{k}")
+        n_all = max(1, min(args.closed, len(laws)))
+        out["export_all_s_per_law"] = (time.perf_counter() - t0) / n_all
+        out["export_all_MB_per_law"] = folder_bytes(tmp / "all") / n_all / 2 ** 20
         # one closed-loop flight: pythonfmu controller vs native law (the same law)
         from descent_fmus.synthesis.fmi.loop import open_loop
         law = NetworkOperator.load(Path(__file__).resolve().parent.parent / "tests" /
@@ -165,6 +176,9 @@ def main(argv=None):
         print(f"old export (pythonfmu controller + closed loop + SSP): "
               f"{out['full_python_MB_per_law']:.2f} MB and {out['full_python_s_per_law']:.2f} s "
               f"a law -> {out['size_ratio_full_to_compact']:.0f}x the compact size")
+        print(f"--export all (native law FMU + closed-loop FMU + SSP): "
+              f"{out['export_all_s_per_law']:.3f} s and {out['export_all_MB_per_law']:.2f} MB "
+              f"a law")
         print(f"one reentry flight: {out['flight_ms_pythonfmu_controller']:.1f} ms with the "
               f"pythonfmu controller, {out['flight_ms_native_law']:.1f} ms with the native law "
               f"({out['flight_speedup']:.1f}x)")

@@ -136,16 +136,26 @@ def _status_library() -> bytes | None:
 def rewrite_archive(src: Path, dst: Path, edit, extra=()) -> Path:
     """Copy the zip archive ``src`` to ``dst`` (atomically; ``dst`` may be ``src``), every
     entry through ``edit(item, data)``, which returns the ``(ZipInfo or name, bytes)`` pairs to
-    write in its place (none: the entry is dropped); ``extra`` pairs are appended."""
-    tmp = dst.with_suffix(".fmu.tmp")
-    with zipfile.ZipFile(src) as zin, zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as zout:
-        for item in zin.infolist():
-            for info, data in edit(item, zin.read(item.filename)):
-                zout.writestr(info, data)
-        for info, data in extra:
-            zout.writestr(info, data)
-    tmp.replace(dst)
-    return dst
+    write in its place (none: the entry is dropped); ``extra`` pairs are appended.  An entry
+    whose bytes ``edit`` passes on as they are (the same object) is copied compressed, under
+    the pair's name (:mod:`synthesis.fmi.archives`); new bytes are deflated."""
+    from descent_fmus.synthesis.fmi.archives import copied, deflated, raw_members, write_archive
+    entries = []
+    with zipfile.ZipFile(src) as zin:
+        for item, raw in raw_members(src):
+            data = zin.read(item.filename)
+            for info, out in edit(item, data):
+                name = info.filename if isinstance(info, zipfile.ZipInfo) else info
+                entries.append(copied(name, item, raw) if out is data else
+                               deflated(name, _bytes(out)))
+    entries += [deflated(info.filename if isinstance(info, zipfile.ZipInfo) else info,
+                         _bytes(data)) for info, data in extra]
+    return write_archive(dst, entries)
+
+
+def _bytes(data) -> bytes:
+    """A member's content: text as UTF-8 (as zipfile's ``writestr`` takes it)."""
+    return data.encode() if isinstance(data, str) else data
 
 
 def add_status_wrapper(fmu: Path) -> Path:

@@ -170,8 +170,9 @@ def _container_description(wiring: Wiring, parts: _Components, variables: list,
 
 def _create_container(config, parts: _Components, name: str, dest: Path,
                       engine: bool = True) -> Path:
-    """Write the container FMU of ``config`` to ``dest`` with fmpy, the components' units in
-    its variables' descriptions."""
+    """Write the container FMU of ``config`` to ``dest``, the components' units in its
+    variables' descriptions: the package's engine as its binary where it can be built
+    (:func:`_engine_container`), else fmpy's container binary (fmpy writes the archive)."""
     from fmpy.container_fmu.cli import create_container_fmu
 
     with tempfile.TemporaryDirectory(prefix="descent_container_") as tmp:
@@ -182,15 +183,49 @@ def _create_container(config, parts: _Components, name: str, dest: Path,
             target.parent.mkdir(exist_ok=True)
             shutil.copy(path, target)
             parts.comps[role].filename = target
+        lib = _engine_library() if engine else None
+        if lib is not None:
+            return _engine_container(config, parts, lib, Path(tmp), dest)
         work = Path(tmp) / "work"
         work.mkdir()
         out = Path(tmp) / f"{name}.fmu"
         create_container_fmu(config, work, out)
         add_units(out)      # the variables' descriptions carry the components' units
-        if engine:          # the closed-loop engine as its binary, where it can be built
-            into_engine(out)
         shutil.move(str(out), dest)
     return dest
+
+
+def _engine_container(config, parts: _Components, lib: bytes, tmp: Path, dest: Path) -> Path:
+    """The closed-loop FMU of fmpy's container ``config`` with the engine's library ``lib``
+    as its binary, written in one pass: the model description and configuration as fmpy's
+    container writer makes them (:func:`into_engine` then gives the same archive), the
+    components' members copied compressed under ``resources/<stem>/``
+    (:mod:`synthesis.fmi.archives`: no member is compressed twice; those of a component's
+    archive that stores them are deflated once per process and file, read from the
+    component's own path in ``parts``)."""
+    from fmpy.container_fmu import write_configuration
+    from fmpy.model_description import write_model_description
+
+    from descent_fmus.synthesis.fmi.archives import (compressed_members, copied, deflated,
+                                                     write_archive)
+    from descent_fmus.synthesis.fmi.description.units import units_into_model_description
+    md = config.modelDescription           # as fmpy's create_container_fmu numbers them
+    md.coSimulation.modelIdentifier = "container_fmu"
+    for i, variable in enumerate(md.modelVariables):
+        variable.valueReference = i
+    write_model_description(md, tmp / "modelDescription.xml")
+    write_configuration(config, tmp / "container.json")
+    root = ET.parse(tmp / "modelDescription.xml").getroot()
+    units_into_model_description(root)
+    xml, text = _engine_description(json.loads((tmp / "container.json").read_text()), root)
+    entries = [deflated("modelDescription.xml", xml)]
+    for comp in config.components:
+        stem = Path(comp.filename).stem
+        entries += [copied(f"resources/{stem}/{info.filename}", info, data)
+                    for info, data in compressed_members(parts.paths[comp.name])]
+    entries += [deflated("binaries/linux64/closed_loop.so", lib),
+                deflated("resources/loop.txt", text)]
+    return write_archive(dest, entries)
 
 
 def engine_library(fmi_version: int = 2, compiler: str | None = None) -> Path:
@@ -276,16 +311,8 @@ def into_engine(fmu: Path) -> Path:
         return fmu
     fmu = Path(fmu)
     with zipfile.ZipFile(fmu) as z:
-        config = json.loads(z.read("resources/container.json"))
-        root = ET.fromstring(z.read("modelDescription.xml"))
-    text = _engine_config(config, root).encode()
-    cs = root.find("CoSimulation")
-    cs.attrib.clear()
-    cs.attrib.update({"modelIdentifier": "closed_loop", "canHandleVariableCommunicationStepSize":
-                      "true", "canInterpolateInputs": "false", "canBeInstantiatedOnlyOncePerProcess":
-                      "false"})
-    root.set("generationTool", "descent-fmus (closed-loop engine)")
-    xml = ET.tostring(root, encoding="UTF-8", xml_declaration=True)
+        xml, text = _engine_description(json.loads(z.read("resources/container.json")),
+                                        ET.fromstring(z.read("modelDescription.xml")))
 
     def edit(item, data):
         if item.filename.startswith("binaries/") or item.filename in (
@@ -294,6 +321,20 @@ def into_engine(fmu: Path) -> Path:
         return [(item, xml if item.filename == "modelDescription.xml" else data)]
     return rewrite_archive(fmu, fmu, edit, extra=[
         ("binaries/linux64/closed_loop.so", lib), ("resources/loop.txt", text)])
+
+
+def _engine_description(config: dict, root: ET.Element) -> tuple:
+    """The engine's model description (``root`` of fmpy's container, edited in place) and its
+    ``resources/loop.txt``, from fmpy's container configuration ``config``: ``(xml, text)``
+    as bytes."""
+    text = _engine_config(config, root).encode()
+    cs = root.find("CoSimulation")
+    cs.attrib.clear()
+    cs.attrib.update({"modelIdentifier": "closed_loop", "canHandleVariableCommunicationStepSize":
+                      "true", "canInterpolateInputs": "false", "canBeInstantiatedOnlyOncePerProcess":
+                      "false"})
+    root.set("generationTool", "descent-fmus (closed-loop engine)")
+    return ET.tostring(root, encoding="UTF-8", xml_declaration=True), text
 
 
 _SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -352,12 +393,10 @@ def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path)
             ET.SubElement(u, q(_SSC_NS, "BaseUnit"), bu)
     ET.SubElement(root, q(_SSD_NS, "DefaultExperiment"),
                   {"startTime": "0", "stopTime": repr(wiring.stop_time)})
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    tmp = dest.with_suffix(".ssp.tmp")
-    with zipfile.ZipFile(tmp, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("SystemStructure.ssd",
-                   ET.tostring(root, encoding="UTF-8", xml_declaration=True))
-        z.write(plant_fmu, f"resources/{plant_fmu.name}")
-        z.write(controller_fmu, f"resources/{controller_fmu.name}")
-    tmp.replace(dest)
-    return dest
+    # the plant FMU deflated once per process (its builder may store its members), the law
+    # FMU as it is (compressed already: one per law)
+    from descent_fmus.synthesis.fmi.archives import compressed_file, deflated, stored, write_archive
+    return write_archive(dest, [
+        deflated("SystemStructure.ssd", ET.tostring(root, encoding="UTF-8", xml_declaration=True)),
+        compressed_file(f"resources/{plant_fmu.name}", plant_fmu),
+        stored(f"resources/{controller_fmu.name}", controller_fmu.read_bytes())])

@@ -23,15 +23,14 @@ from __future__ import annotations
 import hashlib
 import os
 import re
-import struct
 import threading
 import zipfile
-import zlib
 from functools import lru_cache
 from pathlib import Path
 
 from descent_fmus.models.controllers.network_operator import DESCRIPTIONS
 from descent_fmus.models.fmu_support import SAMPLE_PERIOD_DESCRIPTION
+from descent_fmus.synthesis.fmi.archives import copied, deflated, raw_members, write_archive
 from descent_fmus.synthesis.fmi.native.builders.build import (COMPILE_FLAGS, WRAPPER_FILES,
                                                               Variable, build_fmu, c_file,
                                                               find_compiler)
@@ -163,10 +162,10 @@ class _Template:
     values and the header's names."""
 
     def __init__(self, path: Path):
-        with open(path, "rb") as fh, zipfile.ZipFile(fh) as z:
-            self.members = [(i, _raw_data(fh, i)) for i in z.infolist()
-                            if i.filename != "modelDescription.xml"]
+        with zipfile.ZipFile(path) as z:
             xml = z.read("modelDescription.xml")
+        self.members = [(i, d) for i, d in raw_members(path)
+                        if i.filename != "modelDescription.xml"]
         self.identifier = re.search(rb'modelIdentifier="([^"]*)"', xml).group(1).decode()
         self.slots, self.pieces, self.starts, pos = {}, [], {}, 0
         for m in _START.finditer(xml):
@@ -236,54 +235,13 @@ def write_law_fmu(law, dest, identifier: str = DEFAULT_IDENTIFIER, description: 
     text = f"{description or 'network-operator law'}: " + ("; ".join(about) or law.formula(6))
     xml = tpl.model_description(ident, text[:2000], values)
     binary = f"/{tpl.identifier}."
-    entries = [_deflated("modelDescription.xml", xml)]
+    entries = [deflated("modelDescription.xml", xml)]
     for info, data in tpl.members:     # copied as they are compressed: no compression per law
         name = info.filename
         if name.startswith("binaries/") and binary in name:
             name = name.replace(binary, f"/{ident}.")
-        entries.append((name, info.compress_type, info.CRC, info.file_size, data))
-    entries.append(_deflated("resources/start_values.txt", tpl.start_values(values).encode()))
-    dest = Path(dest)
-    dest.parent.mkdir(parents=True, exist_ok=True)
-    part = dest.with_name(dest.name + ".part")
-    part.write_bytes(_zip_archive(entries))
-    os.replace(part, dest)
-    return dest
+        entries.append(copied(name, info, data))
+    entries.append(deflated("resources/start_values.txt", tpl.start_values(values).encode()))
+    return write_archive(dest, entries)
 
 
-# [choice] The law FMU's archive is written here from the interpreter's members as they are
-# compressed in its archive: zipfile compresses every member it writes, and recompressing the
-# same 80 KB binary and sources per law was half of the export's time.  Plain ZIP (PKWARE
-# APPNOTE 4.3: local headers, central directory, end record; no ZIP64: an FMU of a few hundred
-# KB), read back by zipfile and fmpy in the tests.
-_ZIP_TIME = (0, (1 << 5) | 1)          # 1980-01-01 00:00: the same bytes for the same law
-
-
-def _raw_data(fh, info) -> bytes:
-    """The compressed bytes of the member ``info`` of the open archive ``fh``."""
-    fh.seek(info.header_offset)
-    head = fh.read(30)
-    if head[:4] != b"PK\x03\x04":
-        raise zipfile.BadZipFile(f"no local header for {info.filename}")
-    n, m = struct.unpack("<HH", head[26:30])
-    fh.seek(info.header_offset + 30 + n + m)
-    return fh.read(info.compress_size)
-
-
-def _deflated(name: str, data: bytes) -> tuple:
-    c = zlib.compressobj(1, zlib.DEFLATED, -15)     # level 1: 3x faster, as small here
-    return name, zipfile.ZIP_DEFLATED, zlib.crc32(data), len(data), c.compress(data) + c.flush()
-
-
-def _zip_archive(entries) -> bytes:
-    """A ZIP archive of ``entries`` ``(name, method, crc32, size, compressed bytes)``."""
-    body, central = bytearray(), bytearray()
-    for name, method, crc, size, data in entries:
-        raw, offset = name.encode(), len(body)
-        fields = (method, *_ZIP_TIME, crc, len(data), size, len(raw))
-        body += struct.pack("<IHHHHHIIIHH", 0x04034B50, 20, 0, *fields, 0) + raw + data
-        central += struct.pack("<IHHHHHHIIIHHHHHII", 0x02014B50, 20, 20, 0, *fields, 0, 0, 0,
-                               0, 0, offset) + raw
-    end = struct.pack("<IHHHHIIH", 0x06054B50, 0, 0, len(entries), len(entries), len(central),
-                      len(body), 0)
-    return bytes(body + central + end)
