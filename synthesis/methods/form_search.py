@@ -208,7 +208,7 @@ class FormSearch:
                 return None
             self._elite = {"psi": self.matrix(best), "bits": best.bits.copy(),
                            "f": best.f.copy(), "cv": best.cv}
-            psi, bits = self._origin
+            psi, bits = self._island_centre(best)
             self.stats["islands"] = self.stats.get("islands", 0) + 1
         else:
             psi, bits = elite["psi"], elite["bits"]
@@ -219,6 +219,34 @@ class FormSearch:
         members[0].bits = bits.copy()
         self.stats["restart_mark"], self.stats["stall"] = None, 0
         return members
+
+    def _island_centre(self, best) -> tuple:
+        """``(matrix, bits)`` a new island is drawn around (``island_from``): the tuned basic
+        solution ('basic'); that solution's matrix with ``lchr`` random variations applied,
+        drawn anew for each island, and its bits ('varied': another form near the basic law
+        each time); or the member of the stalled population's Pareto set whose structure is
+        not the best law's and whose matrix is farthest from it ('archive': a second form
+        already flown, tuned with the population; the basic solution when there is none)."""
+        psi, bits = self._origin
+        how = self.cfg.island_from
+        if how == "varied" and self._lchr:
+            var = [self.structure.random(self.rng) for _ in range(self._lchr)]
+            return self.structure.apply(np.array(psi, dtype=int), var), bits
+        if how == "archive":
+            base = getattr(self, "_epoch_psi", None)
+            base = self.psi0 if base is None else base
+            ref = self.structure.apply(base, best.variations)
+            far, pick = 0, None
+            for k in np.flatnonzero(self.lh == 0):
+                m = self.pop[int(k)]
+                mat = self.structure.apply(base, m.variations)
+                d = int(np.count_nonzero(mat != ref))
+                if d > far:
+                    far, pick = d, (mat, m.bits.copy())
+            if pick is not None:
+                self.stats["island_archive"] = self.stats.get("island_archive", 0) + 1
+                return pick
+        return psi, bits
 
     def _island_over(self, best) -> bool:
         """Whether an island running below the law kept aside must give the flights left to
