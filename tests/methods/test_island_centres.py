@@ -1,6 +1,6 @@
-"""Where a new island starts (``island_from``): the tuned basic solution ('basic', the
-default: tests/methods/test_islands.py), that solution with random variations drawn anew for
-each island ('varied'), or the stalled population's Pareto member of another form farthest
+"""Where a new island starts (``island_from``): the tuned basic solution ('basic':
+tests/methods/test_islands.py), that solution with random variations drawn anew for each
+island ('varied', the default), or the stalled population's Pareto member of another form farthest
 from the best law ('archive').  Closed-form toy problems (no FMU); the oracles are hand
 counts of matrix entries and the codec's own ``apply`` (docs/methods/network_operator.md,
 "islands from varied basic solutions")."""
@@ -18,9 +18,7 @@ from test_islands import BASIC, _basis_best, _ga, _run
 
 
 def _island_ga(seed: int, island_from: str, generations=None):
-    ga = _ga(seed, generations)
-    ga.cfg = GAConfig(**{**ga.cfg.__dict__, "island_from": island_from})
-    return ga
+    return _ga(seed, generations, island_from=island_from)
 
 
 def _stalled(ga):
@@ -104,6 +102,7 @@ def test_an_archive_island_without_another_pareto_form_starts_at_the_basic_solut
     assert "island_archive" not in ga.stats
 
 
-def test_island_from_is_checked():
+def test_island_from_is_checked_and_varied_by_default():
+    assert GAConfig().island_from == "varied"
     with pytest.raises(ValueError, match="island_from"):
         GAConfig(island_from="elsewhere")
