@@ -106,3 +106,26 @@ def test_island_from_is_checked_and_varied_by_default():
     assert GAConfig().island_from == "varied"
     with pytest.raises(ValueError, match="island_from"):
         GAConfig(island_from="elsewhere")
+
+
+def test_the_law_kept_aside_is_the_best_laws_matrix_after_the_basis_moved():
+    # the epoch moves the basis to the best law's matrix before the restart; the law kept
+    # aside must be that matrix, not the best law's variations applied to it once more (a
+    # variation list applied twice is not always the matrix applied once: a removal or an
+    # added arc can enable another variation of the list).  The oracle is the codec's own
+    # apply on the stalled basis; without the fix this test fails
+    ga = _stalled(_island_ga(5, "basic"))
+    rng = np.random.default_rng(11)
+    for _ in range(2000):                       # a non-idempotent list (0.7 % of draws)
+        var = [ga.structure.random(rng) for _ in range(4)]
+        once = ga.structure.apply(BASIC.psi, var)
+        if not np.array_equal(ga.structure.apply(once, var), once):
+            break
+    else:
+        pytest.fail("no non-idempotent variation list drawn")
+    best = ga.pop[3]
+    best.variations, best.f = var, np.array([0.5, 0.0])
+    ga._epoch_psi = BASIC.psi.copy()
+    ga.psi0 = once.copy()                       # the epoch's move of the basis
+    ga._restart(None, best)
+    assert np.array_equal(ga._elite["psi"], once)
