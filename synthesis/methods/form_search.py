@@ -222,15 +222,16 @@ class FormSearch:
 
     def _island_centre(self, best) -> tuple:
         """``(matrix, bits)`` a new island is drawn around (``island_from``): the tuned basic
-        solution ('basic'); that solution's matrix with ``lchr`` random variations applied,
-        drawn anew for each island, and its bits ('varied': another form near the basic law
-        each time); or the member of the stalled population's Pareto set whose structure is
+        solution ('basic'); that solution's matrix with ``island_variations`` (0: ``lchr``)
+        random variations applied, drawn anew for each island, and its bits ('varied':
+        another form near the basic law each time); or the member of the stalled population's Pareto set whose structure is
         not the best law's and whose matrix is farthest from it ('archive': a second form
         already flown, tuned with the population; the basic solution when there is none)."""
         psi, bits = self._origin
         how = self.cfg.island_from
         if how == "varied" and self._lchr:
-            var = [self.structure.random(self.rng) for _ in range(self._lchr)]
+            n = self.cfg.island_variations or self._lchr
+            var = [self.structure.random(self.rng) for _ in range(n)]
             return self.structure.apply(np.array(psi, dtype=int), var), bits
         if how == "archive":
             ref = self._stalled_matrix(best)

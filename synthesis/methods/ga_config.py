@@ -68,6 +68,8 @@ class GAConfig:
                                "or 'archive' (the stalled population's Pareto member of another "
                                "form farthest from the best law's matrix)",
                                choices=("basic", "varied", "archive"))
+    island_variations: int = setting(0, "random variations of a 'varied' island's centre "
+                                     "(0 = lchr)", 0, 256)
     equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
                                           "flown before is recognised and not flown again "
                                           "(0 = off)", 0, 256)
