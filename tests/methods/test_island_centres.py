@@ -129,3 +129,15 @@ def test_the_law_kept_aside_is_the_best_laws_matrix_after_the_basis_moved():
     ga.psi0 = once.copy()                       # the epoch's move of the basis
     ga._restart(None, best)
     assert np.array_equal(ga._elite["psi"], once)
+
+
+def test_island_variations_sets_how_far_a_varied_centre_is_drawn():
+    ga = _stalled(_island_ga(5, "varied"))
+    ga.cfg = GAConfig(**{**ga.cfg.__dict__, "island_variations": 2})
+    state = ga.rng.bit_generator.state
+    ga._restart(None, ga.pop[0])
+    rng = np.random.default_rng()
+    rng.bit_generator.state = state
+    drawn = [ga.structure.random(rng) for _ in range(2)]   # 2 draws, not lchr = 4
+    assert np.array_equal(ga.psi0, ga.structure.apply(BASIC.psi, drawn))
+    assert int(np.count_nonzero(ga.psi0 != BASIC.psi)) <= 2
