@@ -62,7 +62,7 @@ class GAConfig:
                                 choices=("best", "islands"))
     # [choice] where an island starts: docs/methods/network_operator.md "islands from varied
     # basic solutions"
-    island_from: str = setting("varied", "where a new island starts (restart_from 'islands'): "
+    island_from: str = setting("basic", "where a new island starts (restart_from 'islands'): "
                                "'basic' (the tuned basic solution), 'varied' (the tuned basic "
                                "solution with lchr random variations, drawn anew each island) "
                                "or 'archive' (the stalled population's Pareto member of another "

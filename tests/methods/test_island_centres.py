@@ -1,6 +1,6 @@
-"""Where a new island starts (``island_from``): the tuned basic solution ('basic':
-tests/methods/test_islands.py), that solution with random variations drawn anew for each
-island ('varied', the default), or the stalled population's Pareto member of another form farthest
+"""Where a new island starts (``island_from``): the tuned basic solution ('basic', the
+default: tests/methods/test_islands.py), that solution with random variations drawn anew for
+each island ('varied'), or the stalled population's Pareto member of another form farthest
 from the best law ('archive').  Closed-form toy problems (no FMU); the oracles are hand
 counts of matrix entries and the codec's own ``apply`` (docs/methods/network_operator.md,
 "islands from varied basic solutions")."""
@@ -102,8 +102,8 @@ def test_an_archive_island_without_another_pareto_form_starts_at_the_basic_solut
     assert "island_archive" not in ga.stats
 
 
-def test_island_from_is_checked_and_varied_by_default():
-    assert GAConfig().island_from == "varied"
+def test_island_from_is_checked_and_basic_by_default():
+    assert GAConfig().island_from == "basic" and GAConfig().island_variations == 0
     with pytest.raises(ValueError, match="island_from"):
         GAConfig(island_from="elsewhere")
 

@@ -1,5 +1,5 @@
 """Restarts of a stalled structure search from the basic solution (``restart_from =
-"islands"``, ``island_from = "basic"``; the default 'varied' is in test_island_centres.py) and
+"islands"``, ``island_from = "basic"``, the default; the others: test_island_centres.py) and
 the per-epoch log of the search (``stats["epochs"]``), on closed-form toy problems (no FMU):
 the islands are counted as designed (hand counts), start from the tuned basic solution, go
 back to the run's best law when an island stalls below it, and resume from a JSON checkpoint
