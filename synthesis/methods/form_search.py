@@ -224,14 +224,11 @@ class FormSearch:
         """``(matrix, bits)`` a new island is drawn around (``island_from``): the tuned basic
         solution ('basic'); that solution's matrix with ``island_variations`` (0: ``lchr``)
         random variations applied, drawn anew for each island, and its bits ('varied':
-        another form near the basic law each time); the member of the stalled population's
-        Pareto set whose matrix is farthest from the best law's ('archive': a second form
-        already flown, tuned with the population; the basic solution when there is none);
-        'alternate': 'basic' for the run's first island, 'varied' for its second, and so on."""
+        another form near the basic law each time); or the member of the stalled population's Pareto set whose structure is
+        not the best law's and whose matrix is farthest from it ('archive': a second form
+        already flown, tuned with the population; the basic solution when there is none)."""
         psi, bits = self._origin
         how = self.cfg.island_from
-        if how == "alternate":          # islands 1, 3, ... basic; 2, 4, ... varied
-            how = "varied" if self.stats.get("islands", 0) % 2 else "basic"
         if how == "varied" and self._lchr:
             n = self.cfg.island_variations or self._lchr
             var = [self.structure.random(self.rng) for _ in range(n)]

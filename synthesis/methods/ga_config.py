@@ -64,11 +64,10 @@ class GAConfig:
     # basic solutions"
     island_from: str = setting("basic", "where a new island starts (restart_from 'islands'): "
                                "'basic' (the tuned basic solution), 'varied' (the tuned basic "
-                               "solution with island_variations random variations, drawn anew "
-                               "each island), 'archive' (the stalled population's Pareto member "
-                               "of another form farthest from the best law's matrix) or "
-                               "'alternate' (basic and varied in turn, basic first)",
-                               choices=("basic", "varied", "archive", "alternate"))
+                               "solution with lchr random variations, drawn anew each island) "
+                               "or 'archive' (the stalled population's Pareto member of another "
+                               "form farthest from the best law's matrix)",
+                               choices=("basic", "varied", "archive"))
     island_variations: int = setting(0, "random variations of a 'varied' island's centre "
                                      "(0 = lchr)", 0, 256)
     equivalence_probes: int = setting(16, "input points on which a law equivalent to one "

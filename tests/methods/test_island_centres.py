@@ -141,21 +141,3 @@ def test_island_variations_sets_how_far_a_varied_centre_is_drawn():
     drawn = [ga.structure.random(rng) for _ in range(2)]   # 2 draws, not lchr = 4
     assert np.array_equal(ga.psi0, ga.structure.apply(BASIC.psi, drawn))
     assert int(np.count_nonzero(ga.psi0 != BASIC.psi)) <= 2
-
-
-def test_alternate_islands_start_basic_then_varied_in_turn():
-    ga = _stalled(_island_ga(5, "alternate"))
-    # island 1: the basic matrix; 2: varied (another matrix, drawn from the generator); 3:
-    # the basic matrix again (the search is sent back to a kept law between them by hand)
-    ga._restart(None, ga.pop[0])
-    assert np.array_equal(ga.psi0, BASIC.psi) and ga.stats["islands"] == 1
-    ga._elite = None
-    state = ga.rng.bit_generator.state
-    ga._restart(None, ga.pop[0])
-    rng = np.random.default_rng()
-    rng.bit_generator.state = state
-    drawn = [ga.structure.random(rng) for _ in range(4)]
-    assert np.array_equal(ga.psi0, ga.structure.apply(BASIC.psi, drawn))
-    ga._elite = None
-    ga._restart(None, ga.pop[0])
-    assert np.array_equal(ga.psi0, BASIC.psi) and ga.stats["islands"] == 3
