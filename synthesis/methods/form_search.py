@@ -224,9 +224,10 @@ class FormSearch:
         """``(matrix, bits)`` a new island is drawn around (``island_from``): the tuned basic
         solution ('basic'); that solution's matrix with ``island_variations`` (0: ``lchr``)
         random variations applied, drawn anew for each island, and its bits ('varied':
-        another form near the basic law each time); or the member of the stalled population's Pareto set whose structure is
-        not the best law's and whose matrix is farthest from it ('archive': a second form
-        already flown, tuned with the population; the basic solution when there is none)."""
+        another form near the basic law each time); or the member of the stalled
+        population's Pareto set whose matrix is farthest from the best law's ('archive': a
+        second form already flown, tuned with the population; the basic solution when there
+        is none)."""
         psi, bits = self._origin
         how = self.cfg.island_from
         if how == "varied" and self._lchr:

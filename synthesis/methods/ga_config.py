@@ -64,7 +64,8 @@ class GAConfig:
     # basic solutions"
     island_from: str = setting("basic", "where a new island starts (restart_from 'islands'): "
                                "'basic' (the tuned basic solution), 'varied' (the tuned basic "
-                               "solution with lchr random variations, drawn anew each island) "
+                               "solution with island_variations random variations, drawn anew "
+                               "each island) "
                                "or 'archive' (the stalled population's Pareto member of another "
                                "form farthest from the best law's matrix)",
                                choices=("basic", "varied", "archive"))
