@@ -335,6 +335,7 @@ class VariationalGA(FormSearch, Method):
             self._log_epoch(k)
         if self._origin is None:        # the tuned basic solution, where islands start
             self._origin = (self.psi0.copy(), self.pop[0].bits.copy())
+        self._epoch_psi = self.psi0      # the stalled population's basis (islands' centres)
         self.psi0 = self.matrix(best)
         self.q0 = self.params.decode(best.bits)
         members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]

@@ -1,8 +1,9 @@
 """Restarts of a stalled structure search from the basic solution (``restart_from =
-"islands"``) and the per-epoch log of the search (``stats["epochs"]``), on closed-form toy
-problems (no FMU): the islands are counted as designed (hand counts), start from the tuned
-basic solution, go back to the run's best law when an island stalls below it, and resume from
-a JSON checkpoint to the same run."""
+"islands"``, ``island_from = "basic"``, the default; the others: test_island_centres.py) and
+the per-epoch log of the search (``stats["epochs"]``), on closed-form toy problems (no FMU):
+the islands are counted as designed (hand counts), start from the tuned basic solution, go
+back to the run's best law when an island stalls below it, and resume from a JSON checkpoint
+to the same run."""
 from __future__ import annotations
 
 import json
@@ -22,12 +23,12 @@ BASIC = NetworkOperator.linear([[-1.0, -1.5]], bounds=[(-1.0, 1.0)], size=12)
 
 
 def _ga(seed: int, generations: int | None, restart_from: str = "islands",
-        stall_gain: float = 1e-3) -> VariationalGA:
+        stall_gain: float = 1e-3, island_from: str = "basic") -> VariationalGA:
     return VariationalGA(GrayCodec(len(BASIC.q), 6, 26, -32.0, 32.0), BASIC.q,
                          np.random.default_rng(seed),
                          GAConfig(population=16, crossovers=4, lchr=4, epoch=5,
                                   restart_epochs=2, restart_from=restart_from,
-                                  stall_gain=stall_gain),
+                                  stall_gain=stall_gain, island_from=island_from),
                          StructureCodec(BASIC.size, BASIC.nx + len(BASIC.q)), BASIC.psi,
                          BASIC.with_structure, target=Target(0),
                          refine=RefineConfig(basis=0, evals=0), generations=generations)
