@@ -62,14 +62,14 @@ class GAConfig:
                                 choices=("best", "islands"))
     # [choice] where an island starts: docs/methods/network_operator.md "islands from varied
     # basic solutions"
-    island_from: str = setting("basic", "where a new island starts (restart_from 'islands'): "
+    island_from: str = setting("varied", "where a new island starts (restart_from 'islands'): "
                                "'basic' (the tuned basic solution), 'varied' (the tuned basic "
                                "solution with island_variations random variations, drawn anew "
                                "each island) "
                                "or 'archive' (the stalled population's Pareto member of another "
                                "form farthest from the best law's matrix)",
                                choices=("basic", "varied", "archive"))
-    island_variations: int = setting(0, "random variations of a 'varied' island's centre "
+    island_variations: int = setting(2, "random variations of a 'varied' island's centre "
                                      "(0 = lchr)", 0, 256)
     equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
                                           "flown before is recognised and not flown again "

@@ -17,8 +17,9 @@ from descent_fmus.synthesis.methods.ga_config import GAConfig
 from test_islands import BASIC, _basis_best, _ga, _run
 
 
-def _island_ga(seed: int, island_from: str, generations=None):
-    return _ga(seed, generations, island_from=island_from)
+def _island_ga(seed: int, island_from: str, generations=None, island_variations: int = 0):
+    # island_variations 0: lchr (4 here) variations, the hand counts below
+    return _ga(seed, generations, island_from=island_from, island_variations=island_variations)
 
 
 def _stalled(ga):
@@ -102,8 +103,10 @@ def test_an_archive_island_without_another_pareto_form_starts_at_the_basic_solut
     assert "island_archive" not in ga.stats
 
 
-def test_island_from_is_checked_and_basic_by_default():
-    assert GAConfig().island_from == "basic" and GAConfig().island_variations == 0
+def test_island_from_is_checked_and_varied_by_default():
+    # the [choice] of the methods page: islands drawn around the tuned basic solution with 2
+    # random variations
+    assert GAConfig().island_from == "varied" and GAConfig().island_variations == 2
     with pytest.raises(ValueError, match="island_from"):
         GAConfig(island_from="elsewhere")
 

@@ -23,12 +23,14 @@ BASIC = NetworkOperator.linear([[-1.0, -1.5]], bounds=[(-1.0, 1.0)], size=12)
 
 
 def _ga(seed: int, generations: int | None, restart_from: str = "islands",
-        stall_gain: float = 1e-3, island_from: str = "basic") -> VariationalGA:
+        stall_gain: float = 1e-3, island_from: str = "basic",
+        island_variations: int = 0) -> VariationalGA:
     return VariationalGA(GrayCodec(len(BASIC.q), 6, 26, -32.0, 32.0), BASIC.q,
                          np.random.default_rng(seed),
                          GAConfig(population=16, crossovers=4, lchr=4, epoch=5,
                                   restart_epochs=2, restart_from=restart_from,
-                                  stall_gain=stall_gain, island_from=island_from),
+                                  stall_gain=stall_gain, island_from=island_from,
+                                  island_variations=island_variations),
                          StructureCodec(BASIC.size, BASIC.nx + len(BASIC.q)), BASIC.psi,
                          BASIC.with_structure, target=Target(0),
                          refine=RefineConfig(basis=0, evals=0), generations=generations)
