@@ -17,7 +17,8 @@ __all__ = ["GrayCodec", "StructureCodec", "bits_text", "bits_array"]
 
 
 def bits_text(bits) -> str:
-    return "".join(map(str, np.asarray(bits).tolist()))
+    """A bit string (0/1 values) as text, ``"0110..."`` (the checkpoint's form)."""
+    return (np.asarray(bits, dtype=np.uint8) + ord("0")).tobytes().decode("ascii")
 
 
 def bits_array(text: str) -> np.ndarray:

@@ -1,6 +1,8 @@
 """The search's fast paths give what the slow ones give, bit for bit (issue #41: the S1 search at
 the evaluator's pace): the Gray code's decoding table, the structure search's law constructor
 and the interpreter's cache of compiled programs."""
+import math
+
 import numpy as np
 import pytest
 
@@ -80,3 +82,34 @@ def test_program_cache_is_bounded_and_keyed_by_the_sources(monkeypatch):
         psi[0, t.size - 1] = k + 1
         law_interpreter.compile_law(psi, 2, 3, [t.size])
     assert len(law_interpreter._PROGRAMS) == 3
+
+
+def test_bits_text_round_trip():
+    # oracle: the digits' own text, one character per bit
+    rng = np.random.default_rng(5)
+    for n in (0, 1, 7, 480):
+        bits = rng.integers(0, 2, n).astype(np.uint8)
+        text = encoding.bits_text(bits)
+        assert text == "".join(str(int(b)) for b in bits)
+        assert np.array_equal(encoding.bits_array(text), bits)
+    assert encoding.bits_text([1, 0, 1]) == "101"
+
+
+def test_target_better_agrees_with_its_order():
+    # oracle: Target.order (the array route) on the pair of rows
+    from descent_fmus.synthesis.methods.pareto import Target
+    rng = np.random.default_rng(8)
+    rows = rng.uniform(0.0, 3.0, (60, 3))
+    rows[::7, 1] = 1.0                                  # exactly at the limit
+    rows[::11, 0] = np.nan
+    for t in (Target(0, 1, 1.0, 10.0), Target(2), Target(0, 1, math.inf)):
+        for a in range(len(rows)):
+            b = (a * 17 + 5) % len(rows)
+            for ca, cb in ((0.0, 0.0), (0.5, 0.0), (0.0, 0.3)):
+                want = t.feasible(rows[[a]])[0], t.scalar(rows[[a]])[0]
+                assert t._feasible_row(rows[a]) == want[0]
+                assert np.array_equal(t._scalar_row(rows[a]), want[1], equal_nan=True)
+                order = t.order(rows[[a, b]], [ca, cb]).tolist()
+                keys_differ = t.keys(rows[[a]], [ca]) != t.keys(rows[[b]], [cb])
+                if keys_differ and not np.isnan(rows[[a, b], t.objective]).any():
+                    assert t.better(rows[a], rows[b], ca, cb) == (order == [0, 1])
