@@ -213,7 +213,7 @@ def _import_ahead(*modules) -> None:
     while this process waits for the workers' first flights.  Started only once the local
     workers are forked (:class:`~synthesis.run.backends.ProcessPool` starts them at once), so
     that no worker inherits a half-imported module's lock.  A failure leaves the import to its
-    first use (which then raises as before)."""
+    first use (which then raises as before).  Only for the methods that use CMA-ES."""
     def load():
         for name in modules:
             try:
@@ -301,7 +301,9 @@ def _run(problem, out, fmu_dir, method, workers, scheduler, export, stop_after, 
         announce(f"starting {workers} workers")
     evaluator = Evaluator(problem, fmu_dir, workers=workers, scheduler=scheduler,
                           fail_loudly=True)
-    _import_ahead("cma")                     # after the workers' fork (see the function)
+    refine = getattr(search, "refine_cfg", None)
+    if method.startswith("cma-") or (refine is not None and refine.active):
+        _import_ahead("cma")                 # after the workers' fork (see the function)
     _announce_path(problem, evaluator, announce)
     if st:
         evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)),
