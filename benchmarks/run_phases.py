@@ -18,7 +18,12 @@ other (the wall time outside them: start-up and imports, the workers' start and 
 summary).  Targets (issue #41): cold <= 15 s, warm <= 10 s on 2 cores, the best law with miss
 < 1 km <= 1.0005 x the bound.  The load average is printed before and after each run.
 
-    python benchmarks/run_phases.py [--flights N] [--seed S] [--workers W] [--pythonfmu] [--json]
+With ``--before REV`` the same command on the code of git revision REV (``git archive`` into a
+temporary folder, first on ``PYTHONPATH``; this checkout's FMUs, cache and environment) runs
+after the warm run, as one more column: before and after side by side.
+
+    python benchmarks/run_phases.py [--flights N] [--seed S] [--workers W] [--pythonfmu]
+                                    [--before REV] [--json]
 
 Needs ``python build_fmus.py`` (with the native twins) and a C compiler.
 """
@@ -43,14 +48,30 @@ from native_paths import machine  # noqa: E402  (the machine line every benchmar
 PHASES = ("scaling", "search", "checkpoints", "reference", "export", "report")
 
 
-def run(fmus: Path, out: Path, cache: Path, args) -> dict:
-    """One ``synthesize reentry`` run: its summary, with the wall time of the whole command."""
+def source_tree(rev: str, tmp: Path) -> Path:
+    """The package's code at git revision ``rev`` (``git archive`` of this repository), as a
+    folder to put first on ``PYTHONPATH``: the same command then runs the code before a change
+    (``--before REV``), with this checkout's FMUs and virtual environment."""
+    root = HERE.parent
+    dest = tmp / f"src-{rev.replace('/', '_')}"
+    (dest / "descent_fmus").mkdir(parents=True)
+    archive = subprocess.run(["git", "-C", str(root), "archive", rev, "models", "synthesis"],
+                             capture_output=True, check=True).stdout
+    subprocess.run(["tar", "-x", "-C", str(dest / "descent_fmus")], input=archive, check=True)
+    return dest
+
+
+def run(fmus: Path, out: Path, cache: Path, args, source: Path | None = None) -> dict:
+    """One ``synthesize reentry`` run: its summary, with the wall time of the whole command
+    (``source``: the code of :func:`source_tree` instead of this checkout's)."""
     cmd = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry",
            "--seed", str(args.seed), "--workers", str(args.workers), "--fmus", str(fmus),
            "--out", str(out), "--quiet", "--json"]
     if args.flights:
         cmd += ["--flights", str(args.flights)]
     env = dict(os.environ, DESCENT_FMUS_CACHE=str(cache))
+    if source is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(source), env.get("PYTHONPATH", "")])
     t0 = time.perf_counter()
     res = subprocess.run(cmd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
@@ -70,6 +91,9 @@ def main(argv=None) -> int:
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--pythonfmu", action="store_true",
                    help="also a run on the pythonfmu FMUs only (cold cache), first")
+    p.add_argument("--before", metavar="REV", default=None,
+                   help="also the code at git revision REV (e.g. main), warm cache, run "
+                        "after this checkout's warm run: before and after side by side")
     p.add_argument("--json", action="store_true", help="print the figures as JSON")
     args = p.parse_args(argv)
     fmus = Path(args.fmus or fmu_dir())
@@ -90,6 +114,10 @@ def main(argv=None) -> int:
         load.append(os.getloadavg()[0])
         rows["native, warm cache"] = run(fmus, tmp / "b", cache, args)
         load.append(os.getloadavg()[0])
+        if args.before:
+            rows[f"{args.before}, warm cache"] = run(fmus, tmp / "c", cache, args,
+                                                     source_tree(args.before, tmp))
+            load.append(os.getloadavg()[0])
     figures = {name: {"wall": s["wall"], "flight_path": s.get("flight_path"),
                       "flights": s["flights"], "pareto_size": s["pareto_size"],
                       "J1_over_bound": s.get("ratio_to_bound"),

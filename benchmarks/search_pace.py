@@ -15,7 +15,11 @@ skipped: ``--no-reference``) ``--repeat`` times and prints, per run and as media
 
 Timings are measured, never asserted; the machine's load average is printed beside them.
 
-    python benchmarks/search_pace.py [--flights N] [--seed S] [--workers W] [--repeat R] [--json]
+With ``--before REV`` each run is followed by the same run on the code of git revision REV
+(interleaved A/B: the load drifts alike for both), and both medians are printed.
+
+    python benchmarks/search_pace.py [--flights N] [--seed S] [--workers W] [--repeat R]
+                                     [--before REV] [--json]
 
 Needs ``python build_fmus.py``.
 """
@@ -31,11 +35,15 @@ import tempfile
 import time
 from pathlib import Path
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from run_phases import source_tree  # noqa: E402  (the code of a git revision)
+
 PHASES = ("scaling", "search", "checkpoints", "export", "report")
 
 
-def run(out: Path, args) -> dict:
-    """One run's figures (see the module docstring)."""
+def run(out: Path, args, source: Path | None = None) -> dict:
+    """One run's figures (see the module docstring); ``source``: the code of
+    :func:`run_phases.source_tree` instead of this checkout's."""
     cmd = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry",
            "--workers", str(args.workers), "--out", str(out), "--no-reference", "--quiet",
            "--json"]
@@ -43,9 +51,12 @@ def run(out: Path, args) -> dict:
         cmd += ["--seed", str(args.seed)]
     if args.flights:
         cmd += ["--flights", str(args.flights)]
+    env = dict(os.environ)
+    if source is not None:
+        env["PYTHONPATH"] = os.pathsep.join([str(source), env.get("PYTHONPATH", "")])
     load = os.getloadavg()[0]
     t0 = time.perf_counter()
-    res = subprocess.run(cmd, capture_output=True, text=True)
+    res = subprocess.run(cmd, capture_output=True, text=True, env=env)
     wall = time.perf_counter() - t0
     if res.returncode != 0:
         raise SystemExit(f"synthesize failed ({res.returncode}):\n{res.stderr[-3000:]}")
@@ -65,22 +76,36 @@ def main(argv=None) -> dict:
     ap.add_argument("--seed", type=int, default=None, help="default: the problem's")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--before", metavar="REV", default=None,
+                    help="also the code at git revision REV (e.g. main), runs interleaved "
+                         "with this checkout's: before and after side by side")
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
-    runs = []
+    runs, before = [], []
     with tempfile.TemporaryDirectory() as tmp:
+        source = source_tree(args.before, Path(tmp)) if args.before else None
         for i in range(args.repeat):
             runs.append(run(Path(tmp) / f"run{i}", args))
+            if source is not None:
+                before.append(run(Path(tmp) / f"before{i}", args, source))
     keys = ("wall", "laws", "laws_per_s", "ceiling", "own", "waited", "ratio",
             "export_share") + PHASES
     med = {k: statistics.median(r[k] for r in runs) for k in keys}
     out = {"runs": runs, "median": med, "workers": args.workers}
+    if before:
+        out.update(before_rev=args.before, before_runs=before,
+                   before_median={k: statistics.median(r[k] for r in before) for k in keys})
     if args.json:
         print(json.dumps(out, indent=1))
         return out
     print(f"S1 search, {args.workers} workers, seed {args.seed or 'of the problem'}, "
-          f"{len(runs)} run(s)")
-    for tag, r in [(f"load {r['load']:.1f}", r) for r in runs] + [("median", med)]:
+          f"{len(runs)} run(s)" + (f", interleaved with {args.before}'s" if before else ""))
+    rows = [(f"load {r['load']:.1f}", r) for r in runs] + [("median", med)]
+    if before:
+        rows = [(f"this, load {r['load']:.1f}", r) for r in runs] + [("this, median", med)] \
+            + [(f"{args.before}, load {r['load']:.1f}", r) for r in before] \
+            + [(f"{args.before}, median", out["before_median"])]
+    for tag, r in rows:
         print(f"  [{tag}] {r['laws']:.0f} laws: search {r['search']:.1f} s = "
               f"{r['laws_per_s']:.0f} laws/s (target >= 5000; the flights' ceiling "
               f"{r['ceiling']:.0f}); flights' own time "

@@ -60,7 +60,7 @@ def compile_law(psi, nx: int, nq: int, outputs):
         an operation on a source node, or an output node out of range.
     """
     if hasattr(psi, "dtype") and psi.ndim == 2 and psi.dtype.kind in "iu":
-        program = _compile_array(psi, nx, nq, outputs)
+        program = _compiled(psi, nx, nq, outputs)
         if program is not None:
             return program
         psi = psi.tolist()       # a malformed matrix: the checks below name the fault
@@ -108,6 +108,28 @@ def compile_law(psi, nx: int, nq: int, outputs):
             raise MatrixError(f"output {k + 1} names node {o}, outside 1..{L}")
         outs.append(int(o) - 1)
     return L, init, arcs, outs
+
+
+#: [choice] Programs of the last integer matrices compiled, by their bytes and the sources and
+#: outputs: the search compiles a structure once for all its parameter vectors (a CMA-ES
+#: generation, the GA's children that share a form), where each law was compiled anew.
+#: Programs are never modified (:func:`evaluate` copies ``init``), so laws share them.
+PROGRAM_CACHE = 4096
+_PROGRAMS: dict = {}
+
+
+def _compiled(psi, nx: int, nq: int, outputs):
+    """:func:`_compile_array` through :data:`PROGRAM_CACHE` (the programs of valid matrices
+    only)."""
+    key = (psi.shape, psi.dtype.str, psi.tobytes(), nx, nq, tuple(outputs))
+    program = _PROGRAMS.get(key)
+    if program is None:
+        program = _compile_array(psi, nx, nq, outputs)
+        if program is not None:
+            if len(_PROGRAMS) >= PROGRAM_CACHE:
+                del _PROGRAMS[next(iter(_PROGRAMS))]      # the oldest entry
+            _PROGRAMS[key] = program
+    return program
 
 
 def _compile_array(psi, nx: int, nq: int, outputs):

@@ -17,7 +17,8 @@ __all__ = ["GrayCodec", "StructureCodec", "bits_text", "bits_array"]
 
 
 def bits_text(bits) -> str:
-    return "".join(map(str, np.asarray(bits).tolist()))
+    """A bit string (0/1 values) as text, ``"0110..."`` (the checkpoint's form)."""
+    return (np.asarray(bits, dtype=np.uint8) + ord("0")).tobytes().decode("ascii")
 
 
 def bits_array(text: str) -> np.ndarray:
@@ -53,21 +54,60 @@ class GrayCodec:
         return (self.hi - self.lo) / float(1 << self.bits_per)
 
     def decode(self, bits) -> list:
+        table = _decode_table(self)
+        if table is not None:          # a parameter's bits (one byte each) -> its value
+            raw, k = np.asarray(bits, dtype=np.uint8).tobytes(), self.bits_per
+            if len(raw) == self.n_bits:
+                return [table[raw[i:i + k]] for i in range(0, len(raw), k)]
         bits = np.asarray(bits, dtype=np.uint8).reshape(self.n, self.bits_per)
         # Gray -> binary: b_k = g_0 xor ... xor g_k
         binary = np.bitwise_xor.accumulate(bits, axis=1)
         weights = 1 << np.arange(self.bits_per - 1, -1, -1, dtype=np.int64)
-        ints = binary.astype(np.int64) @ weights
+        return self._values(binary.astype(np.int64) @ weights)
+
+    def _values(self, ints) -> list:
         return list(self.lo + (self.hi - self.lo) * ints / float(1 << self.bits_per))
 
-    def encode(self, values) -> np.ndarray:
+    def _ints(self, values) -> np.ndarray:
         values = np.asarray(values, float)
         full = 1 << self.bits_per
         ints = np.clip(np.round((values - self.lo) / (self.hi - self.lo) * full), 0, full - 1)
-        ints = ints.astype(np.int64)
+        return ints.astype(np.int64)
+
+    def encode(self, values) -> np.ndarray:
+        ints = self._ints(values)
         gray = ints ^ (ints >> 1)
         shifts = np.arange(self.bits_per - 1, -1, -1)
         return ((gray[:, None] >> shifts[None, :]) & 1).astype(np.uint8).ravel()
+
+    def grid(self, values) -> list:
+        """``decode(encode(values))`` (what the code can hold), without the bits."""
+        return self._values(self._ints(values))
+
+
+#: [choice] Codes of at most this many bits per parameter decode through a table of every
+#: code's value (65 536 entries for the default 16 bits, built once per process and codec):
+#: a dictionary look-up per parameter instead of a few array operations per law (the search
+#: decodes every candidate, and CMA-ES's candidates twice).
+TABLE_BITS = 16
+_TABLES: dict = {}
+
+
+def _decode_table(codec: GrayCodec) -> dict | None:
+    """Each parameter's code (``bits_per`` bytes 0/1) -> its value, as :meth:`GrayCodec.decode`
+    computes it (None: codes too long for a table)."""
+    k = codec.bits_per
+    if k > TABLE_BITS:
+        return None
+    key = (k, codec.lo, codec.hi)
+    table = _TABLES.get(key)
+    if table is None:
+        ints = np.arange(1 << k, dtype=np.int64)
+        gray = ints ^ (ints >> 1)
+        bits = ((gray[:, None] >> np.arange(k - 1, -1, -1)[None, :]) & 1).astype(np.uint8)
+        values = GrayCodec(1, k, 0, codec.lo, codec.hi)._values(ints)
+        table = _TABLES[key] = dict(zip((bytes(b) for b in bits), values))
+    return table
 
 
 # -- structure: variations of a network-operator matrix ------------------------------------------

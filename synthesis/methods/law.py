@@ -290,9 +290,38 @@ class NetworkOperator:
 
     def with_structure(self, psi, q) -> "NetworkOperator":
         """This law's inputs, outputs, bounds and input scaling with another matrix and
-        parameters (what a structure search varies)."""
-        return NetworkOperator(psi, self.nx, q, self.outputs, self.bounds, self.input_names,
-                               self.input_scale, self.input_offset)
+        parameters (what a structure search varies).
+
+        [choice] An integer matrix of this law's kind skips the constructor's checks of what
+        this law already passed (its inputs, outputs, bounds, scaling): only the matrix
+        (compiled, through the interpreter's cache of programs) and the parameters are checked
+        -- the search builds thousands of laws a second; the same law as the constructor's.
+        Anything else goes through the constructor (its messages)."""
+        if not (isinstance(psi, np.ndarray) and psi.ndim == 2 and psi.dtype.kind in "iu"
+                and psi.shape[0] == psi.shape[1] and psi.shape[0] <= MAX_NODES
+                and self.nx <= psi.shape[0] and len(q) <= psi.shape[0]
+                and len(self.outputs) <= psi.shape[0]):
+            return NetworkOperator(psi, self.nx, q, self.outputs, self.bounds,
+                                   self.input_names, self.input_scale, self.input_offset)
+        q, psi = [float(v) for v in q], psi.astype(int)
+        program = None
+        if all(map(math.isfinite, q)):
+            try:
+                program = compile_law(psi, self.nx, len(q), self.outputs)
+            except MatrixError:
+                pass
+        if program is None:           # the constructor names the fault
+            return NetworkOperator(psi, self.nx, q, self.outputs, self.bounds,
+                                   self.input_names, self.input_scale, self.input_offset)
+        law = object.__new__(NetworkOperator)
+        law.psi, law.nx, law.q = psi, self.nx, q
+        law.outputs, law.bounds = list(self.outputs), list(self.bounds)
+        law.input_names = list(self.input_names)
+        law.input_scale, law.input_offset = list(self.input_scale), list(self.input_offset)
+        law._program = program
+        law._scaled = any(s != 1.0 for s in law.input_scale) or \
+            any(o != 0.0 for o in law.input_offset)
+        return law
 
     @classmethod
     def stack(cls, laws) -> "NetworkOperator":

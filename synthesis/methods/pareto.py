@@ -238,12 +238,23 @@ class Target:
         """Is row ``f`` better than row ``g`` by :meth:`order`?"""
         if cv_f != cv_g:
             return cv_f < cv_g
-        fs, gs = self.feasible(f)[0], self.feasible(g)[0]
+        # :meth:`feasible` and :meth:`scalar` of one row, on floats (the same IEEE operations;
+        # CMA-ES's refinement asks this of every law it flies)
+        fs, gs = self._feasible_row(f), self._feasible_row(g)
         if fs != gs:
-            return bool(fs)
+            return fs
         if fs:
-            return f[self.objective] < g[self.objective]
-        return self.scalar(f)[0] < self.scalar(g)[0]
+            return bool(f[self.objective] < g[self.objective])
+        return self._scalar_row(f) < self._scalar_row(g)
+
+    def _feasible_row(self, f) -> bool:
+        return self.constraint is None or float(f[self.constraint]) < self.limit
+
+    def _scalar_row(self, f) -> float:
+        s = float(f[self.objective])
+        if self.constraint is not None and math.isfinite(self.limit):
+            s += self.weight * max(float(f[self.constraint]) / self.limit - 1.0, 0.0)
+        return s
 
     def best(self, F, cv=None) -> int | None:
         """Index of the best row that meets the constraints and the target's constraint (lowest

@@ -188,9 +188,8 @@ class Refinement:
 
     def new_cma(self, q, seed: int) -> CMA:
         p = self.codec
-        grid = lambda x: p.decode(p.encode(x))  # noqa: E731  (what the Gray code can hold)
         return CMA(q, self.cfg.sigma, seed, popsize=self.cfg.popsize or None,
-                   bounds=(p.lo, p.hi - p.step), x_map=grid, restart_sigma=IPOP_SIGMA,
+                   bounds=(p.lo, p.hi - p.step), x_map=p.grid,   # what the Gray code can hold restart_sigma=IPOP_SIGMA,
                    restart_stall=IPOP_STALL)
 
     def start(self, picks, budget: int, rng: np.random.Generator, patience: int = 0,

@@ -166,6 +166,9 @@ class ProcessPool(Backend):
         self._here: LawFlyer | None = None          # flies small batches
         self.small_batch = SMALL_BATCH                # (0: every batch goes to the workers)
         self._pool = self._new_pool()
+        # [choice] the workers start now (forked at the first task), loading their FMUs while
+        # this process prepares the search, not when the first batch waits for them
+        self._pool.submit(int)
 
     def _new_pool(self):
         return ProcessPoolExecutor(max_workers=self.workers, mp_context=self._ctx,

@@ -15,6 +15,8 @@ systematic failures and full disks end it cleanly (:mod:`synthesis.run.guard`).
 """
 from __future__ import annotations
 
+import importlib
+import threading
 import time
 from pathlib import Path
 from typing import Callable
@@ -203,6 +205,24 @@ class _Checkpoints:
 
 
 # -- a synthesis run ------------------------------------------------------------------------------
+def _import_ahead(*modules) -> None:
+    """Import ``modules`` in a background thread.
+
+    [choice] pycma (with the part of SciPy it loads) took about 2 s of the main process at the
+    first CMA-ES search, after the initial population; imported at the run's start it loads
+    while this process waits for the workers' first flights.  Started only once the local
+    workers are forked (:class:`~synthesis.run.backends.ProcessPool` starts them at once), so
+    that no worker inherits a half-imported module's lock.  A failure leaves the import to its
+    first use (which then raises as before).  Only for the methods that use CMA-ES."""
+    def load():
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except Exception:
+                pass
+    threading.Thread(target=load, name="descent-fmus-import-ahead", daemon=True).start()
+
+
 def _announce_path(problem, evaluator, announce) -> None:
     """The path the flights take, and where it is not native although it could be, why."""
     announce(f"flying on the {evaluator.path} path ({evaluator.workers} "
@@ -281,6 +301,9 @@ def _run(problem, out, fmu_dir, method, workers, scheduler, export, stop_after, 
         announce(f"starting {workers} workers")
     evaluator = Evaluator(problem, fmu_dir, workers=workers, scheduler=scheduler,
                           fail_loudly=True)
+    refine = getattr(search, "refine_cfg", None)
+    if method.startswith("cma-") or (refine is not None and refine.active):
+        _import_ahead("cma")                 # after the workers' fork (see the function)
     _announce_path(problem, evaluator, announce)
     if st:
         evaluator.restore(folder.flown(sim0), folder.behaviour(st.get("behaviour_bytes", 0)),

@@ -55,6 +55,26 @@ int no_probe_lmax(void) { return NO_L_MAX; }
 _UPPER = np.triu_indices(L_MAX)        # the twin's psi order: the upper triangle row by row
 
 
+#: [choice] The twin's matrices of the last structures probed (the search probes many parameter
+#: vectors per structure: a CMA-ES generation, children that share a form)
+MATRIX_CACHE = 4096
+_MATRICES: dict = {}
+
+
+def _twin_matrix(psi: np.ndarray) -> np.ndarray:
+    """A law's matrix as the twin holds it (``L_MAX`` nodes, the upper triangle row by row)."""
+    key = (psi.shape, psi.tobytes())
+    got = _MATRICES.get(key)
+    if got is None:
+        full = np.zeros((L_MAX, L_MAX), np.intc)
+        full[:psi.shape[0], :psi.shape[1]] = psi
+        got = np.ascontiguousarray(full[_UPPER])
+        if len(_MATRICES) >= MATRIX_CACHE:
+            del _MATRICES[next(iter(_MATRICES))]          # the oldest entry
+        _MATRICES[key] = got
+    return got
+
+
 class NativeProber:
     """``values(law, points)``: :meth:`NetworkOperator.raw_points` flattened, through C."""
 
@@ -78,17 +98,17 @@ class NativeProber:
         if not self.trusted or law.size > L_MAX or len(law.outputs) > NU_MAX \
                 or getattr(law, "_program", None) is None:
             return None
-        psi = np.zeros((L_MAX, L_MAX), np.intc)
-        psi[:law.size, :law.size] = law.psi
         x = np.asarray(points, np.float64)
         if x.ndim != 2 or x.shape[1] != law.nx:
             return None
         if law._scaled:                # as raw: s * (v - o), per input, the same IEEE steps
             x = np.asarray(law.input_scale) * (x - np.asarray(law.input_offset))
-        src = np.ascontiguousarray(np.hstack([x, np.broadcast_to(law.q, (len(x), len(law.q)))]))
+        src = np.empty((len(x), law.nx + len(law.q)))
+        src[:, :law.nx] = x
+        src[:, law.nx:] = law.q
         nu = len(law.outputs)
         out = np.empty(len(x) * nu)
-        if self._eval(np.ascontiguousarray(psi[_UPPER]), law.nx, len(law.q),
+        if self._eval(_twin_matrix(law.psi), law.nx, len(law.q),
                       np.asarray(law.outputs, np.intc), nu, src, len(x), out) != 0:
             return None
         got = out.tolist()
