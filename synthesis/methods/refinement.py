@@ -86,12 +86,13 @@ class RefineConfig:
                                 "before, then 'spread')",
                         choices=("best", "spread", "adaptive"))
     screen: int = setting(0, "new forms screened after every epoch, before the halving: "
-                             "each gets `screen_evals` flights of a line search on the "
-                             "constants its variations touched (the rest fixed), and the "
-                             "halving ranks the forms by those values (0 = off; with `forms` "
-                             "only)", 0, 1_000)
+                             "each gets `screen_evals` flights of a search over the scale of "
+                             "the constants its variations touched (and of the others), and "
+                             "the halving ranks the forms by those values (0 = off; with "
+                             "`forms` only)", 0, 1_000)
     screen_evals: int = setting(8, "flights per screened form (`screen`): the touched "
-                                   "constants times a fixed list of factors", 1, 12)
+                                   "constants and the others times the first of a fixed list "
+                                   "of factor pairs", 1, 12)
     rest: int = setting(0, "when the flights left after an epoch's refinement cannot hold "
                            "one more epoch, the refinement's winner goes on with them (its "
                            "last rung takes the rest; 0 = the GA goes on; with `forms` only)",
