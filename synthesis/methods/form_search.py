@@ -9,11 +9,55 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FormSearch", "ISLAND_EPOCHS"]
+from descent_fmus.synthesis.methods.pareto import dominance_counts
+
+__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "touched_constants", "upstream"]
 
 #: [choice] a new island is started only when the flights left hold this many epochs of the
 #: structure search (docs/methods/network_operator.md, "islands")
 ISLAND_EPOCHS = 3
+#: [choice] the screening's moves, in this order (the first ``screen_evals`` are flown): the
+#: constants a form's variations touched times the first factor, the others times the second.
+#: What a new form's inherited constants most often miss is their scale (an operation put on
+#: an arc, ssqrt(q x) for q x, wants other gains), and the rest of the law its balance with
+#: them (mintime-di's switching form from its tuned linear parent: touched x 64, the rest x 4):
+#: decades of the touched ones both ways first, then both grown, a sign flip, finer steps
+#: (docs/methods/network_operator.md, "Screening new forms")
+SCREEN_FACTORS = ((4.0, 1.0), (0.25, 1.0), (16.0, 1.0), (1 / 16, 1.0), (8.0, 2.0),
+                  (16.0, 2.0), (64.0, 4.0), (-1.0, 1.0), (2.0, 1.0), (64.0, 1.0), (32.0, 4.0),
+                  (0.5, 0.5))
+
+
+def upstream(psi, nodes) -> np.ndarray:
+    """Mask of the nodes of ``psi`` (upper triangular, arcs ``a -> b`` for ``a < b``) from
+    which a path leads into one of ``nodes`` (those included)."""
+    psi = np.asarray(psi)
+    mark = np.zeros(len(psi), bool)
+    mark[sorted(nodes)] = True
+    for b in range(len(psi) - 1, 0, -1):
+        if mark[b]:
+            mark[:b] |= psi[:b, b] != 0
+    return mark
+
+
+def touched_constants(psi0, psi, nx: int, m: int) -> list:
+    """The constants (0-based indices into q; source nodes ``nx .. nx + m - 1``) that the
+    change from matrix ``psi0`` to ``psi`` touches: for an arc ``i -> j`` given a new unary
+    operation (or added) those upstream of ``i`` (what the new operation reads: its scale is
+    theirs), for a new binary operation at node ``j`` or a removed arc those upstream of
+    ``j``; when none is, those upstream of the changed entries' target nodes."""
+    psi0, psi = np.asarray(psi0), np.asarray(psi)
+    src, dst = set(), set()
+    for i, j in zip(*np.nonzero(psi != psi0)):
+        dst.add(int(j))
+        src.add(int(j) if i == j or psi[i, j] == 0 else int(i))
+    for nodes in (src, dst):
+        if nodes:
+            mark = upstream(psi, nodes)
+            out = [k for k in range(m) if mark[nx + k]]
+            if out:
+                return out
+    return []
 
 
 class FormSearch:
@@ -54,19 +98,59 @@ class FormSearch:
         self.stats["children_new_form"] = self.stats.get("children_new_form", 0) + sum(out)
         return out
 
-    def _promising(self, n: int) -> list:
-        """The ``n`` best members by the target with distinct structures; with ``forms``, also
-        distinct objectives (two members with equal objectives most often fly one law) and,
-        after the best member, only forms whose parameters were not tuned before (new
-        forms).  With ``pick = 'spread'`` the new forms after the best member are taken at
-        evenly spaced ranks of all the eligible ones (the first of them, then on down the
-        order) instead of the top ones: a new form is judged with its parents' parameters,
-        tuned for another form."""
+    def _screen_members(self) -> list:
+        """The screening's candidates (``screen``): up to ``screen`` new forms (the eligible
+        ones of :meth:`_promising` after the best member; more of them: at evenly spaced ranks,
+        since their untuned values say little), each with the constants its variations touched
+        (:func:`touched_constants`, against the basis) and the others times each of the first
+        ``screen_evals`` pairs of :data:`SCREEN_FACTORS` (a touched constant at 0 as if it
+        were 1).  Reads
+        no random numbers; the member indices are kept for :meth:`_finish_screen`."""
+        cfg, codec = self.refine_cfg, self.params
+        self._screen_k = []
+        if not (cfg.forms and cfg.screen) or self.structure is None or self.target is None:
+            return []
+        forms = self._eligible()[1:]
+        if len(forms) > cfg.screen:
+            forms = [forms[int(r)] for r in np.floor(np.arange(cfg.screen) * len(forms)
+                                                     / cfg.screen)]
+        nx = self.structure.n_sources - codec.n
+        out = []
+        for k in forms:
+            m = self.pop[k]
+            idx = touched_constants(self.psi0, self.matrix(m), nx, codec.n)
+            if not idx:
+                continue
+            q = np.array(codec.decode(m.bits))
+            base = np.where(q[idx] == 0.0, 1.0, q[idx])
+            rest = np.setdiff1d(np.arange(codec.n), idx)
+            for touched, others in SCREEN_FACTORS[:cfg.screen_evals]:
+                q2 = q.copy()
+                q2[idx], q2[rest] = base * touched, q[rest] * others
+                out.append(type(m)(list(m.variations), codec.encode(q2)))
+                self._screen_k.append(k)
+        return out
+
+    def _finish_screen(self, members) -> None:
+        """Each screened member takes the best of its flights when it beats its own value
+        (then the halving ranks the forms by these values)."""
+        for k, m in zip(self._screen_k, members):
+            old = self.pop[k]
+            if self.target.better(m.f, old.f, m.cv, old.cv):
+                self.pop[k] = m
+        self.stats["screened_forms"] = self.stats.get("screened_forms", 0) + len(
+            set(self._screen_k))
+        self.lh = dominance_counts(self.F, self.CV)
+        self._screen_k = []
+
+    def _eligible(self, n: int | None = None, spread: bool = False) -> list:
+        """Member indices in the target's order with distinct structures; with ``forms``, also
+        distinct objectives and, after the first, only structures not tuned before; at most
+        ``n`` unless ``spread``."""
         picks, seen, values = [], set(), set()
         forms = self.refine_cfg.forms
-        spread = forms and self._spread_picks()
         for k in self.target.order(self.F, self.CV):
-            if len(picks) >= n and not spread:
+            if n is not None and len(picks) >= n and not spread:
                 break
             m = self.pop[int(k)]
             key, f = self._structure_key(m), (m.cv, *m.f.tolist())
@@ -76,6 +160,19 @@ class FormSearch:
             seen.add(key)
             values.add(f)
             picks.append(int(k))
+        return picks
+
+    def _promising(self, n: int) -> list:
+        """The ``n`` best members by the target with distinct structures; with ``forms``, also
+        distinct objectives (two members with equal objectives most often fly one law) and,
+        after the best member, only forms whose parameters were not tuned before (new
+        forms).  With ``pick = 'spread'`` the new forms after the best member are taken at
+        evenly spaced ranks of all the eligible ones (the first of them, then on down the
+        order) instead of the top ones: a new form is judged with its parents' parameters,
+        tuned for another form."""
+        forms = self.refine_cfg.forms
+        spread = forms and self._spread_picks()
+        picks = self._eligible(n, spread)
         if spread and len(picks) > n:
             rest = picks[1:]
             ranks = np.floor(np.arange(n - 1) * len(rest) / (n - 1)).astype(int)

@@ -85,6 +85,14 @@ class RefineConfig:
                                 "best law is none of the new forms tuned after the epoch "
                                 "before, then 'spread')",
                         choices=("best", "spread", "adaptive"))
+    screen: int = setting(0, "new forms screened after every epoch, before the halving: "
+                             "each gets `screen_evals` flights of a search over the scale of "
+                             "the constants its variations touched (and of the others), and "
+                             "the halving ranks the forms by those values (0 = off; with "
+                             "`forms` only)", 0, 1_000)
+    screen_evals: int = setting(8, "flights per screened form (`screen`): the touched "
+                                   "constants and the others times the first of a fixed list "
+                                   "of factor pairs", 1, 12)
     rest: int = setting(0, "when the flights left after an epoch's refinement cannot hold "
                            "one more epoch, the refinement's winner goes on with them (its "
                            "last rung takes the rest; 0 = the GA goes on; with `forms` only)",
@@ -107,10 +115,13 @@ class RefineConfig:
 
     def epoch_evals(self, n: int | None = None) -> int:
         """Evaluations of the refinement after every epoch (at most; searches may stop earlier
-        in a rung), with ``n`` searches in the halving (default ``forms``)."""
+        in a rung), with ``n`` searches in the halving (default ``forms``, and then the
+        screening's flights too: a whole epoch's refinement)."""
         if not self.forms:
             return self.evals * self.laws
         total, alive, done = 0, n or self.forms, 0
+        if n is None:
+            total = self.screen * self.screen_evals
         for r in self.rungs(alive):
             total += alive * (r - done)
             alive, done = max(1, math.ceil(alive / 2)), r

@@ -196,6 +196,9 @@ class VariationalGA(FormSearch, Method):
         elif phase == "refine":
             if self.refinement.tell(members):
                 self._finish_refine()
+        elif phase == "screen":
+            self._finish_screen(members)
+            self._start_refine(screen=False)
         else:
             for child in members:
                 self._insert(child)
@@ -379,9 +382,15 @@ class VariationalGA(FormSearch, Method):
             return ""
         return hashlib.sha1(self.matrix(m).tobytes()).hexdigest()
 
-    def _start_refine(self, basis: bool = False) -> None:
+    def _start_refine(self, basis: bool = False, screen: bool = True) -> None:
         """Refine member 0 alone (``basis``: ``starts`` searches) or the ``laws`` best members
-        by the target with distinct structures (feasible first)."""
+        by the target with distinct structures (feasible first); with ``screen``, new forms
+        are screened first (``refine screen``: the halving starts when they are flown)."""
+        if screen and not basis:
+            members = self._screen_members()
+            if members:
+                self._pending = ("screen", members)
+                return
         self._basis_refining, patience = basis, 0
         if basis:
             picks, budget = [0] * self.refine_cfg.starts, self.refine_cfg.basis
