@@ -34,7 +34,7 @@ from deap import base, gp, tools
 from descent_fmus.synthesis.methods.base import Candidate, Method
 from descent_fmus.synthesis.methods.gp_config import GPConfig
 from descent_fmus.synthesis.methods.gp_trees import (compile_trees, primitive_set,
-                                                     tree_from_tokens, tree_to_tokens)
+                                                     tree_from_tokens, tree_key, tree_to_tokens)
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.law_fmu import CapacityError
 from descent_fmus.synthesis.methods.pareto import Target
@@ -138,7 +138,7 @@ class GeneticProgramming(Method):
 
     def _vary(self, child: Individual, k: int, tree) -> None:
         """``child`` with tree ``k`` replaced, if the law still fits (else it stays)."""
-        if str(tree) == str(child[k]):
+        if tree_key(tree) == tree_key(child[k]):     # str(tree) == str(child[k]), cheaper
             return
         old = child[k]
         child[k] = tree
