@@ -166,6 +166,20 @@ def _trees(m):
     return [[str(t) for t in ind] for ind in m.population]
 
 
+def test_the_law_cache_changes_nothing_but_the_compiles():
+    """The same seed without the cache of compiled laws (oracle): the same trees, fitnesses and
+    laws, generation for generation; with it, some individuals' laws came from the cache."""
+    a = _run(_search(), 12)
+    b = _search()
+    b.law_cache = 0
+    _run(b, 12)
+    assert _trees(a) == _trees(b)
+    assert [i.fitness.values for i in a.population] == [i.fitness.values for i in b.population]
+    assert all(np.array_equal(i.law.psi, j.law.psi) and list(i.law.q) == list(j.law.q)
+               for i, j in zip(a.population, b.population))
+    assert a.cache_hits > 0 and b.cache_hits == 0 and len(b._laws) == 0
+
+
 def test_a_seed_reproduces_the_search_and_a_resume_continues_it_exactly():
     a, b = _run(_search(), 8), _run(_search(), 8)
     assert _trees(a) == _trees(b) and a.best == b.best and a.evaluations == b.evaluations
