@@ -141,7 +141,7 @@ def plot(at: dict, path: Path, title: str = "") -> dict:
     for ax in axes.ravel()[len(names):]:
         ax.axis("off")
     fig.suptitle("benchmark suite" + (f": {title}" if title else "") + "\nthe best value "
-                 "of the target objective against flights: every method's median over the "
+                 "of the target objective against flights:\nevery method's median over the "
                  "seeds (thick) and each seed (thin)", fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
