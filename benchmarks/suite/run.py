@@ -14,7 +14,9 @@ tuning half only): per method the median over the seeds of the best value of the
 target objective (the last point of ``summary["curve"]``), its ratio to the reference, whether
 the network operator is at least as good as the best baseline on the median, the form of its
 best law (new, or the basic law's) and what that form bought (its median against
-``nop-lchr0``'s).  Finished runs are reused; a run that stopped early (interrupted) is resumed.
+``nop-lchr0``'s); and a table of every method at fixed budgets (``--at``, default 5 000 and
+20 000 flights: the median over the seeds, the values per seed, the network operator over GP
+and, above a reference, the ratio of their excesses over it).  Finished runs are reused; a run that stopped early (interrupted) is resumed.
 This script runs the syntheses (one process each) and is the command line; the tables are
 built by ``suite_table.py`` and printed and plotted by ``suite_report.py``.
 
@@ -23,13 +25,15 @@ built by ``suite_table.py`` and printed and plotted by ``suite_report.py``.
     python benchmarks/suite/run.py --problems hopper --methods network-operator   # one method
     python benchmarks/suite/run.py --no-run                          # re-tabulate runs/suite
     python benchmarks/suite/run.py --no-run --json                   # the tables as JSON
+    python benchmarks/suite/run.py --no-run --out A --also B --plot docs/figures/suite-baselines.png
 
 ``--workers N`` runs N syntheses at once (one process each, every synthesis in one process):
 the flights of the suite's plants (native twins built by ``descent-fmus build-plant``) are
 short, so separate runs use the cores better than a pool inside one run.  ``--flights N``
 overrides every problem's budget (smoke tests).
 Writes ``<out>/table.json`` and one figure per half, ``docs/figures/suite-tuning.png`` and
-``suite-held-out.png`` (``--plot``); a malformed ``--split`` file ends with one line (exit 2).
+``suite-held-out.png`` (``--plot``: every method's median learning curve over the seeds and each
+seed's, from the longest run of each in ``--out`` and ``--also``); a malformed ``--split`` file ends with one line (exit 2).
 """
 from __future__ import annotations
 
@@ -49,9 +53,9 @@ sys.path.insert(0, str(HERE))
 import split  # noqa: E402
 import suite  # noqa: E402
 
-from suite_report import figure_path, plot, print_table  # noqa: E402
-from suite_table import (NETWORK_OPERATOR, VARIANTS, jsonable, methods_of, run_dir,  # noqa: E402
-                         tabulate)
+from suite_report import figure_path, plot, print_budgets, print_table  # noqa: E402
+from suite_table import (NETWORK_OPERATOR, VARIANTS, at_budgets, jsonable,  # noqa: E402
+                         methods_of, run_dir, tabulate)
 
 
 # -- running ------------------------------------------------------------------------------------
@@ -211,9 +215,13 @@ def main(argv=None):
                     help="a recipe setting of every network-operator run, named as in "
                          "synthesize's options (refine_basis_patience=0, lchr=12; "
                          "repeatable): an A/B of the recipe, in its own --out")
-    ap.add_argument("--at", type=int, nargs="+", default=[], metavar="FLIGHTS",
-                    help="also print each method's values at these flight counts, read off "
-                         "its runs' learning curves (e.g. --at 5000 20000)")
+    ap.add_argument("--at", type=int, nargs="*", default=[5000, 20000], metavar="FLIGHTS",
+                    help="the table of every method at these budgets (default 5000 20000): "
+                         "GP and CMA-ES read off any run flown that far, the network operator "
+                         "(it reads its budget) from a run of that budget")
+    ap.add_argument("--also", type=Path, nargs="+", default=[], metavar="DIR",
+                    help="more run folders (the layout of --out, e.g. the network operator "
+                         "at another budget) read for that table and the figures, never run")
     ap.add_argument("--job", help=argparse.SUPPRESS)        # one run (the runner's child)
     args = ap.parse_args(argv)
     if args.job:
@@ -229,28 +237,35 @@ def main(argv=None):
         run_all(args.problems, args.seeds, args.out, args.fmus, args.workers, args.flights,
                 args.methods, settings)
     table = tabulate(args.problems, args.seeds, args.out, args.fmus)
+    at = at_budgets(table, [args.out, *args.also], args.seeds, args.at)
     wall = time.perf_counter() - t0
     parts = {half: {n: dict(table[n], half=half) for n in halves[half] if n in table}
              for half, _ in split.HALVES}
     args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "table.json").write_text(json.dumps(jsonable(dict(split=halves, **parts)),
+    budgets = {n: {k: v for k, v in t.items() if k != "rows"} | {"rows": [
+        {k: v for k, v in r.items() if k not in ("curves", "ends")} for r in t["rows"]]}
+        for n, t in at.items()}
+    (args.out / "table.json").write_text(json.dumps(jsonable(dict(split=halves, **parts,
+                                                                  at_budgets=budgets)),
                                                     indent=1))
     if args.json:
-        print(json.dumps(jsonable(dict(split=halves, **{
+        print(json.dumps(jsonable(dict(split=halves, at_budgets=budgets, **{
             half: {n: {k: v for k, v in t.items() if k != "reference_details"}
                    for n, t in part.items()} for half, part in parts.items()})), indent=1))
     else:
         for half, title in split.HALVES:
             if parts[half]:
                 print(f"\n######## {title}: {', '.join(parts[half])}")
-                print_table(parts[half], args.seeds, args.at)
+                print_table(parts[half], args.seeds)
+                if args.at:
+                    print_budgets({n: at[n] for n in parts[half]}, args.seeds)
         if not args.no_run:
             print(f"\nwall time of this invocation: {wall:.0f} s ({os.cpu_count()} cores)")
     if args.plot:
         for half, title in split.HALVES:
             if parts[half]:
                 path = figure_path(args.plot, half)
-                plot(parts[half], path, title)
+                plot({n: at[n] for n in parts[half]}, path, title)
                 print(f"figure: {path}", file=sys.stderr if args.json else sys.stdout)
 
 

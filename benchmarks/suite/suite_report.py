@@ -2,17 +2,19 @@
 
 :func:`print_table` prints one problem's rows (median, ratio to the reference, the values per
 seed), the verdict against the best baseline, the goal and the network operator's best law;
-:func:`plot` draws the best value of the target objective against flights, every method and
-seed, one panel per problem (:func:`figure_path`: one figure per half of ``split.toml``).
+:func:`print_budgets` every method's values at fixed budgets (5 000 and 20 000 flights) with
+the network operator's ratio to GP; :func:`plot` draws the best value of the target objective
+against flights, every method's median over the seeds and each seed, one panel per problem
+(:func:`figure_path`: one figure per half of ``split.toml``).
 """
 from __future__ import annotations
 
 import math
 from pathlib import Path
 
-from suite_table import CLEARLY, NETWORK_OPERATOR, NOP_LCHR0, _median, value_at
+from suite_table import CLEARLY, NETWORK_OPERATOR, NOP_LCHR0, median_curve
 
-__all__ = ["print_table", "plot", "figure_path"]
+__all__ = ["print_table", "print_budgets", "plot", "figure_path"]
 
 
 def _fmt(v, digits=5) -> str:
@@ -26,9 +28,8 @@ def _fmt(v, digits=5) -> str:
     return f"{v:.{digits}g}"
 
 
-def print_table(table: dict, seeds, at=()) -> None:
-    """Every problem's rows; ``at`` (flight counts): each method's values read off its runs'
-    learning curves at those budgets (:func:`suite_table.value_at`) as well."""
+def print_table(table: dict, seeds) -> None:
+    """Every problem's rows."""
     for name, t in table.items():
         print(f"\n== {name}: reference {_fmt(t['reference'], 7)} ({t['reference_label']}); "
               f"goal: {t['goal']}")
@@ -40,12 +41,6 @@ def print_table(table: dict, seeds, at=()) -> None:
             per = ", ".join(_fmt(v) for v in r["values"])
             print(f"  {r['method']:18s} {_fmt(r['median'], 7):>11s} {_fmt(r['ratio'], 5):>9s}"
                   f"  {per}" + (f"  [{r['details']}]" if r.get("details") else ""))
-        for n in at:                     # a run shorter than n flights has no value there
-            for r in t["rows"]:
-                vals = [value_at(r["curves"].get(s, []), n) if (f or 0) >= n else math.nan
-                        for s, f in zip(seeds, r["flights"])]
-                print(f"  at {n} flights: {r['method']:18s} median {_fmt(_median(vals), 7)}"
-                      f"  per seed {', '.join(_fmt(v) for v in vals)}")
         v = t["verdict"]
         if "best_baseline" in v:
             print(f"  network operator / best baseline ({v['best_baseline']}): "
@@ -66,34 +61,68 @@ def print_table(table: dict, seeds, at=()) -> None:
                   f"{_fmt(v.get('no_over_lchr0'), 4)} (what the form bought, if the form is new)")
 
 
+# -- every method at fixed budgets --------------------------------------------------------------
+def print_budgets(at: dict, seeds) -> None:
+    """:func:`suite_table.at_budgets`' table: per problem and method the median and the values
+    per seed at each budget ("-": no run gives it), then NO / GP and, above a reference, the
+    ratio of the excesses over it."""
+    for name, t in at.items():
+        if not t["rows"]:
+            continue
+        print(f"\n== {name} at fixed budgets (median; per seed {', '.join(map(str, seeds))})")
+        for r in t["rows"]:
+            cells = [f"{n}: {_fmt(r['median'][n], 5)} ("
+                     + ", ".join(_fmt(v) if v is not None else "-" for v in r["values"][n])
+                     + ")" for n in t["budgets"]]
+            print(f"  {r['method']:18s} " + "; ".join(cells))
+        for key, label in (("no_over_gp", "network operator / GP"),
+                           ("excess_no_over_gp", "excess over the reference, NO / GP")):
+            if key in t:
+                print(f"  {label}: " + "; ".join(f"{n}: {_fmt(t[key][n], 3)}"
+                                                 for n in t["budgets"]))
+
+
 # -- the figure --------------------------------------------------------------------------------
-def plot(table: dict, path: Path, title: str = "") -> None:
+def _scaled(curve, ref, excess):
+    n, v = map(list, zip(*curve))
+    if excess:
+        v = [max(x / ref - 1.0, 1e-12) for x in v]
+    return n, v
+
+
+def plot(at: dict, path: Path, title: str = "") -> dict:
+    """The learning curves of every method of every problem of ``at`` (the table of
+    :func:`suite_table.at_budgets`), one panel per problem: each method's median over the seeds
+    (:func:`suite_table.median_curve`, thick) and each seed's curve (thin), the value over the
+    reference minus 1 where ``plot = "excess"``.  Returns the median curves drawn
+    (``{problem: {method: [[flights, value], ...]}}``)."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    names = list(table)
-    cols = min(3, len(names))
-    rows = math.ceil(len(names) / cols)
+    names = [n for n in at if at[n]["rows"]]
+    cols = min(3, max(len(names), 1))
+    rows = max(math.ceil(len(names) / cols), 1)
     fig, axes = plt.subplots(rows, cols, figsize=(max(5.2 * cols, 7.0), 4.0 * rows),
                              squeeze=False)
+    drawn = {}
     for ax, name in zip(axes.ravel(), names):
-        t = table[name]
+        t = at[name]
         ref = t["reference"]
-        excess = t.get("plot") == "excess" and ref
-        low = []
+        excess = bool(t.get("plot") == "excess" and ref)
+        low, drawn[name] = [], {}
         for k, r in enumerate(t["rows"]):
-            for j, (seed, curve) in enumerate(sorted(r["curves"].items(),
-                                                     key=lambda kv: int(kv[0]))):
-                if not curve:
-                    continue
-                n, v = map(list, zip(*curve))
-                n.append(max(n[-1], max(f or 0 for f in r["flights"])))
-                v.append(v[-1])
-                if excess:
-                    v = [max(x / ref - 1.0, 1e-12) for x in v]
-                low.append(min(v))
-                ax.step(n, v, where="post", color=f"C{k}", alpha=0.85, lw=1.2,
-                        label=r["method"] if j == 0 else None)
+            for seed, curve in r["curves"].items():
+                if curve:
+                    n, v = _scaled(curve + [[max(curve[-1][0], r["ends"][seed]), curve[-1][1]]],
+                                   ref, excess)
+                    low.append(min(v))
+                    ax.step(n, v, where="post", color=f"C{k}", alpha=0.35, lw=0.7)
+            med = median_curve(r["curves"], r["ends"])
+            drawn[name][r["method"]] = med
+            if med:
+                n, v = _scaled(med, ref, excess)
+                ax.step(n, v, where="post", color=f"C{k}", lw=2.0,
+                        label=f"{r['method']} (median of {len(r['curves'])})")
         if excess:
             if t.get("goal_ratio"):
                 ax.axhline(t["goal_ratio"] - 1.0, color="k", ls=":", lw=1,
@@ -112,12 +141,13 @@ def plot(table: dict, path: Path, title: str = "") -> None:
     for ax in axes.ravel()[len(names):]:
         ax.axis("off")
     fig.suptitle("benchmark suite" + (f": {title}" if title else "") + "\nthe best value "
-                 "of the target objective against flights, every method and seed",
-                 fontsize=9)
+                 "of the target objective against flights:\nevery method's median over the "
+                 "seeds (thick) and each seed (thin)", fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=100)
     plt.close(fig)
+    return drawn
 
 
 def figure_path(base: Path, half: str) -> Path:

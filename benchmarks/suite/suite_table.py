@@ -18,8 +18,9 @@ from pathlib import Path
 
 import suite
 
-__all__ = ["NETWORK_OPERATOR", "NOP_LCHR0", "VARIANTS", "CLEARLY", "methods_of", "is_baseline",
-           "run_dir", "best_of", "tabulate", "verdict", "form_bought", "jsonable"]
+__all__ = ["NETWORK_OPERATOR", "NOP_LCHR0", "VARIANTS", "CLEARLY", "READS_BUDGET", "methods_of",
+           "is_baseline", "run_dir", "best_of", "tabulate", "verdict", "form_bought", "jsonable",
+           "median_curve", "stored_runs", "at_budgets"]
 
 NETWORK_OPERATOR = "network-operator"
 #: the network operator's recipe with lchr = 0 (no structure variations: the basic law's
@@ -27,6 +28,10 @@ NETWORK_OPERATOR = "network-operator"
 NOP_LCHR0 = "nop-lchr0"
 #: method variants of the suite: (the method run, the recipe settings changed)
 VARIANTS = {NOP_LCHR0: (NETWORK_OPERATOR, {"lchr": 0})}
+#: the methods that read their flight budget (the registry hands it to the network operator
+#: only: its epochs and refinement are sized by it); every other method (GP, CMA-ES) runs
+#: generations until the flights end, so its value at N flights is read off a longer run's curve
+READS_BUDGET = frozenset({NETWORK_OPERATOR, NOP_LCHR0})
 
 
 def methods_of(problem) -> list:
@@ -118,6 +123,7 @@ def tabulate(names, seeds, out: Path, fmus=None) -> dict:
             ref_details = ("the basic law (LQR of the linearisation): "
                            + suite.law_details(name, problem, problem.basic(), fmus))
         table[name] = {"reference": ref["value"], "reference_label": ref["label"],
+                       "methods": methods_of(problem),
                        "reference_note": ref_details, "plot": spec.plot,
                        "goal": spec.goal, "goal_ratio": spec.goal_ratio, "rows": rows,
                        "verdict": verdict(rows, ref["value"], spec.goal_ratio,
@@ -170,6 +176,112 @@ def form_bought(no: dict, lchr0: dict | None) -> dict:
         out["lchr0_median"] = z
         if n == n and z == z and z != math.inf:
             out["no_over_lchr0"] = n / z if z > 0 else (1.0 if n == z else math.inf)
+    return out
+
+
+# -- every method at fixed budgets, and the median learning curves -----------------------------
+def stored_runs(dirs, name: str, method: str, seeds) -> dict:
+    """``{seed: [run, ...]}``: the runs of a method in every folder of ``dirs`` (run.py's
+    ``--out``, then ``--also``), each ``{"budget": flights asked (run.json), "flights": flown,
+    "curve": [[flights, value], ...], "dir": its folder}``.  A run stopped before its end
+    (no summary) counts by its checkpoint's curve and flights, with no budget (its value is
+    read only for a method that does not read its budget)."""
+    out = {}
+    for d in dirs:
+        for seed in seeds:
+            rd = run_dir(d, name, method, seed)
+            rj, sj, ck = rd / "run.json", rd / "summary.json", rd / "checkpoint.json"
+            if sj.is_file():
+                s = json.loads(sj.read_text())
+                flights = s.get("flights") or 0
+                budget = (json.loads(rj.read_text()).get("budget") or {}).get("flights") \
+                    if rj.is_file() else None
+            elif ck.is_file():
+                s = json.loads(ck.read_text())
+                flights, budget = s.get("simulated") or 0, None
+            else:
+                continue
+            out.setdefault(seed, []).append({"budget": budget, "flights": flights,
+                                             "curve": s.get("curve") or [], "dir": str(rd)})
+    return out
+
+
+def value_at_budget(method: str, runs, flights: int):
+    """One seed's value at ``flights`` flights: for a method of :data:`READS_BUDGET` the best
+    of a run of exactly that budget, for any other the curve of a run flown at least that far
+    (:func:`value_at`; NaN if no law was feasible by then); None if no run gives it."""
+    for r in runs:
+        if method in READS_BUDGET:
+            if r["budget"] == flights:
+                return best_of(r)
+        elif r["flights"] >= flights:
+            return value_at(r["curve"], flights)
+    return None
+
+
+def _ratio(a, b):
+    return a / b if a == a and b == b and 0 < b < math.inf and a < math.inf else None
+
+
+def at_budgets(table: dict, dirs, seeds, budgets) -> dict:
+    """Per problem of ``table`` (:func:`tabulate`'s) every method's values at each of
+    ``budgets`` flights (per seed, None where no run gives it; the median over the seeds
+    that have one), the network operator's median over GP's (``no_over_gp``) and, where the
+    value lies above a reference (``plot = "excess"``: the minimum-time problems, lq,
+    reentry-second), the ratio of their excesses over it (``excess_no_over_gp``); and per
+    method and seed its longest run's curve (``curves``, ``ends``) for :func:`median_curve`."""
+    out = {}
+    for name, t in table.items():
+        ref, rows = t["reference"], []
+        for method in t.get("methods") or [r["method"] for r in t["rows"]]:
+            runs = stored_runs(dirs, name, method, seeds)
+            if not runs:
+                continue
+            vals = {n: [value_at_budget(method, runs.get(s, []), n) for s in seeds]
+                    for n in budgets}
+            longest = {s: max(rs, key=lambda r: r["flights"]) for s, rs in runs.items()}
+            rows.append({"method": method, "values": vals,
+                         "median": {n: _median([v for v in vals[n] if v is not None])
+                                    for n in budgets},
+                         "curves": {s: r["curve"] for s, r in longest.items()},
+                         "ends": {s: r["flights"] for s, r in longest.items()}})
+        by = {r["method"]: r["median"] for r in rows}
+        no, gp = by.get(NETWORK_OPERATOR, {}), by.get("gp", {})
+        res = {"reference": ref, "plot": t.get("plot"), "goal_ratio": t.get("goal_ratio"),
+               "budgets": list(budgets), "rows": rows,
+               "no_over_gp": {n: _ratio(no.get(n, math.nan), gp.get(n, math.nan))
+                              for n in budgets}}
+        if t.get("plot") == "excess" and ref is not None:
+            res["excess_no_over_gp"] = {
+                n: _ratio(no.get(n, math.nan) - ref, gp.get(n, math.nan) - ref)
+                for n in budgets}
+        out[name] = res
+    return out
+
+
+def median_curve(curves: dict, ends: dict) -> list:
+    """The median over the seeds of their best-so-far curves (``{seed: [[flights, value],
+    ...]}``) at every flight count where one of them steps, up to the shortest run's end
+    (``ends``: ``{seed: flights flown}``), that end included; a seed before its first point
+    counts as the worst (inf), and points whose median is inf are left out."""
+    import bisect
+    curves = {s: c for s, c in curves.items() if c}
+    if not curves:
+        return []
+    end = min(ends[s] for s in curves)
+    keys = {s: [n for n, _ in c] for s, c in curves.items()}
+
+    def at(s, n):
+        i = bisect.bisect_right(keys[s], n)
+        return float(curves[s][i - 1][1]) if i else math.nan
+
+    out = []
+    for n in sorted({n for k in keys.values() for n in k if n <= end}):
+        m = _median([at(s, n) for s in curves])
+        if m < math.inf and (not out or m != out[-1][1]):
+            out.append([n, m])
+    if out and out[-1][0] < end:
+        out.append([end, out[-1][1]])
     return out
 
 

@@ -6,7 +6,8 @@ ephemeral constants and the problem's operation set (:mod:`synthesis.methods.gp_
 network operator's own functions).  Each generation (DEAP's ``eaSimple``): tournament
 selection, one-point subtree crossover of pairs (one output's trees) and uniform subtree
 mutation, with a static depth limit and the generic controller FMU's capacity as bloat control;
-only changed individuals are flown.  Every individual is compiled into a
+only changed individuals are flown (and compiled: a law is kept by its trees, :data:`LAW_CACHE`).
+Every individual is compiled into a
 :class:`~synthesis.methods.law.NetworkOperator` law, so the run loop flies, counts, archives and
 exports it like the laws of any other method.
 
@@ -27,6 +28,7 @@ import contextlib
 import functools
 import operator
 import random
+from collections import OrderedDict
 
 import numpy as np
 from deap import base, gp, tools
@@ -34,7 +36,7 @@ from deap import base, gp, tools
 from descent_fmus.synthesis.methods.base import Candidate, Method
 from descent_fmus.synthesis.methods.gp_config import GPConfig
 from descent_fmus.synthesis.methods.gp_trees import (compile_trees, primitive_set,
-                                                     tree_from_tokens, tree_to_tokens)
+                                                     tree_from_tokens, tree_key, tree_to_tokens)
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.law_fmu import CapacityError
 from descent_fmus.synthesis.methods.pareto import Target
@@ -43,6 +45,11 @@ __all__ = ["GPConfig", "GeneticProgramming"]
 
 #: Attempts at an initial individual that fits the controller before the search gives up.
 INIT_ATTEMPTS = 1000
+#: Compiled laws kept by their trees (least recently used out first): a converged population
+#: varies into trees it has had before, whose law is then not compiled again (the compile is
+#: deterministic, so the search is the same with or without it; 4 096 laws of at most 32
+#: nodes are a few tens of MB).
+LAW_CACHE = 4096
 
 
 class _Fitness(base.Fitness):
@@ -89,6 +96,9 @@ class GeneticProgramming(Method):
         self.generation = self.evaluations = 0
         self.best = None                 # best fitness key so far
         self._pending = None
+        self.law_cache = LAW_CACHE
+        self._laws: OrderedDict = OrderedDict()      # trees' keys -> law (None: too big)
+        self.cache_hits = 0
 
     def _toolbox(self) -> base.Toolbox:
         c, tb = self.config, base.Toolbox()
@@ -115,11 +125,25 @@ class GeneticProgramming(Method):
 
     # -- individuals ----------------------------------------------------------------------------
     def _fits(self, ind: Individual) -> bool:
-        """Compile the individual's law (kept); False if the controller cannot hold it."""
-        try:
-            ind.law = compile_trees(list(ind), self.pset, self.template)
-        except CapacityError:
+        """Compile the individual's law (kept; from the cache if these trees were compiled
+        before); False if the controller cannot hold it (the individual's law unchanged)."""
+        key = tuple(tree_key(t) for t in ind)
+        if key in self._laws:
+            self._laws.move_to_end(key)
+            self.cache_hits += 1
+            law = self._laws[key]
+        else:
+            try:
+                law = compile_trees(list(ind), self.pset, self.template)
+            except CapacityError:
+                law = None
+            if self.law_cache:
+                self._laws[key] = law
+                if len(self._laws) > self.law_cache:
+                    self._laws.popitem(last=False)
+        if law is None:
             return False
+        ind.law = law
         return True
 
     def _initial(self) -> list:
@@ -138,7 +162,7 @@ class GeneticProgramming(Method):
 
     def _vary(self, child: Individual, k: int, tree) -> None:
         """``child`` with tree ``k`` replaced, if the law still fits (else it stays)."""
-        if str(tree) == str(child[k]):
+        if tree_key(tree) == tree_key(child[k]):     # str(tree) == str(child[k]), cheaper
             return
         old = child[k]
         child[k] = tree

@@ -15,7 +15,8 @@ takes its arcs in the order of their source nodes, clamping after each; a unary 
 output is ``finite`` of its tree.  The compiler keeps that order: a second operand whose node
 does not come after the first's is copied into a new identity node; a unary primitive of a
 unary primitive (or at the root) gets a node of its own (``+`` of one arc); identical sub-trees
-and constants share one node (also across outputs).
+and constants share one node (also across outputs): two sub-trees are identical when DEAP
+prints them alike (:func:`tree_key`, the printed nodes in prefix order, is the key).
 """
 from __future__ import annotations
 
@@ -33,7 +34,7 @@ from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.law_fmu import CapacityError
 
 __all__ = ["primitive_set", "compile_trees", "tree_value", "tree_to_tokens",
-           "tree_from_tokens", "law_size", "IDENTITY", "ADD"]
+           "tree_from_tokens", "tree_key", "law_size", "IDENTITY", "ADD"]
 
 #: The identity unary operation and the binary operation + (the law's numbers).
 IDENTITY, ADD = 1, 1
@@ -136,6 +137,26 @@ def tree_value(tree, pset, x) -> float:
 
 
 # -- tree -> network operator ---------------------------------------------------------------------
+def tree_key(tree) -> tuple:
+    """The tree's nodes as DEAP prints them (names of primitives and inputs, ``repr`` of
+    constants), in prefix order: equal exactly when ``str(tree)`` is (prefix order with fixed
+    arities reads back one way), at a fraction of its cost (no nested strings)."""
+    return tuple(n.name if n.arity else n.format() for n in tree)
+
+
+def _subtree_ends(tree) -> list:
+    """``ends[i]``: the end of the sub-tree at ``i`` (DEAP's ``searchSubtree(i).stop``), all in
+    one pass from the right."""
+    ends, stack = [0] * len(tree), []
+    for i in range(len(tree) - 1, -1, -1):
+        end = i + 1
+        for _ in range(tree[i].arity):            # the children's ends, first child on top
+            end = stack.pop()
+        ends[i] = end
+        stack.append(end)
+    return ends
+
+
 class _Compiler:
     """Allocates the nodes of one law for a list of trees (see the module docstring)."""
 
@@ -148,7 +169,8 @@ class _Compiler:
                     self.q[n.value] = nx + len(self.q)
         self.arcs: list = []                       # (source, target, unary)
         self.ops: list = []                        # binary operation of each inner node
-        self.memo: dict = {}
+        self.memo: dict = {}                       # a sub-tree's tree_key -> its arc
+        self.keys: dict = {}                       # id(tree) -> (tree_key, sub-tree ends)
 
     @property
     def next(self) -> int:
@@ -163,8 +185,11 @@ class _Compiler:
     def subtree(self, tree, at: int) -> tuple:
         """``((node, unary), end)``: the sub-tree at ``at`` as the unary arc leaving a node."""
         n = tree[at]
-        end = tree.searchSubtree(at).stop
-        key = str(gp.PrimitiveTree(tree[at:end]))
+        if id(tree) not in self.keys:
+            self.keys[id(tree)] = (tree_key(tree), _subtree_ends(tree))
+        tokens, ends = self.keys[id(tree)]
+        end = ends[at]
+        key = tokens[at:end]                        # the sub-tree's str, in effect
         if key in self.memo:
             return self.memo[key], end
         if _is_constant(n):

@@ -20,9 +20,9 @@ from descent_fmus.models.controllers.network_operator import L_MAX
 from descent_fmus.models.controllers.operation_table import BINARY, UNARY, UNIT, finite
 from descent_fmus.synthesis.methods.gp import GeneticProgramming
 from descent_fmus.synthesis.methods.gp_config import GPConfig
-from descent_fmus.synthesis.methods.gp_trees import (compile_trees, law_size, primitive_set,
-                                                     tree_from_tokens, tree_to_tokens,
-                                                     tree_value)
+from descent_fmus.synthesis.methods.gp_trees import (_subtree_ends, compile_trees, law_size,
+                                                     primitive_set, tree_from_tokens, tree_key,
+                                                     tree_to_tokens, tree_value)
 from descent_fmus.synthesis.methods.law import NetworkOperator
 from descent_fmus.synthesis.methods.law_fmu import CapacityError
 from descent_fmus.synthesis.methods.pareto import Target
@@ -102,6 +102,35 @@ def test_compilation_shares_nodes_and_keeps_the_order_of_arcs():
     assert law.raw([0.6, 1.0]) == pytest.approx([1.3, np.sin(0.3)], abs=1e-15)
 
 
+def test_tree_keys_and_subtree_ends_are_deaps_strings_and_searches():
+    """The compiler's sub-tree key and ends (one pass each) against DEAP's own ``str`` and
+    ``searchSubtree`` on random trees of every depth up to 9, with crossovers of a tree with
+    a copy of itself (shared sub-trees, equal trees): the key is equal exactly when the
+    strings are, so the compiled laws share the same nodes as with ``str`` keys."""
+    pset = primitive_set(2, ALL_UNARY, ALL_BINARY, 1.0)
+    rng_state = random.getstate()
+    random.seed(5)
+    try:
+        pairs = equal = 0
+        for _ in range(400):
+            a = gp.PrimitiveTree(gp.genHalfAndHalf(pset, 1, random.randint(1, 9)))
+            b, c = gp.cxOnePoint(gp.PrimitiveTree(list(a)), gp.PrimitiveTree(list(a)))
+            for t in (a, b, c):
+                assert _subtree_ends(t) == [t.searchSubtree(i).stop for i in range(len(t))]
+                for i in range(len(t)):
+                    for u in (a, b, c):
+                        j = random.randrange(len(u))
+                        ki = tree_key(t[i:_subtree_ends(t)[i]])
+                        kj = tree_key(u[j:_subtree_ends(u)[j]])
+                        si = str(gp.PrimitiveTree(t[i:t.searchSubtree(i).stop]))
+                        sj = str(gp.PrimitiveTree(u[j:u.searchSubtree(j).stop]))
+                        assert (ki == kj) == (si == sj)
+                        pairs, equal = pairs + 1, equal + (si == sj)
+    finally:
+        random.setstate(rng_state)
+    assert equal > 1000 and pairs - equal > 1000          # both cases met, many times
+
+
 def test_a_law_beyond_the_controller_is_a_capacity_error():
     pset = primitive_set(2, [1, 3], [1], 1.0)
     deep = "x1"
@@ -135,6 +164,20 @@ def _run(m, generations):
 
 def _trees(m):
     return [[str(t) for t in ind] for ind in m.population]
+
+
+def test_the_law_cache_changes_nothing_but_the_compiles():
+    """The same seed without the cache of compiled laws (oracle): the same trees, fitnesses and
+    laws, generation for generation; with it, some individuals' laws came from the cache."""
+    a = _run(_search(), 12)
+    b = _search()
+    b.law_cache = 0
+    _run(b, 12)
+    assert _trees(a) == _trees(b)
+    assert [i.fitness.values for i in a.population] == [i.fitness.values for i in b.population]
+    assert all(np.array_equal(i.law.psi, j.law.psi) and list(i.law.q) == list(j.law.q)
+               for i, j in zip(a.population, b.population))
+    assert a.cache_hits > 0 and b.cache_hits == 0 and len(b._laws) == 0
 
 
 def test_a_seed_reproduces_the_search_and_a_resume_continues_it_exactly():
