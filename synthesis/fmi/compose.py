@@ -138,8 +138,9 @@ def rewrite_archive(src: Path, dst: Path, edit, extra=()) -> Path:
     entry through ``edit(item, data)``, which returns the ``(ZipInfo or name, bytes)`` pairs to
     write in its place (none: the entry is dropped); ``extra`` pairs are appended.  An entry
     whose bytes ``edit`` passes on as they are (the same object) is copied compressed, under
-    the pair's name (:mod:`synthesis.fmi.archives`); new bytes are deflated."""
-    from descent_fmus.synthesis.fmi.archives import copied, deflated, raw_members, write_archive
+    the pair's name (:mod:`synthesis.fmi.native.builders.archives`); new bytes are deflated."""
+    from descent_fmus.synthesis.fmi.native.builders.archives import (copied, deflated,
+                                                                     raw_members, write_archive)
     entries = []
     with zipfile.ZipFile(src) as zin:
         for item, raw in raw_members(src):

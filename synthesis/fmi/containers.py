@@ -200,14 +200,14 @@ def _engine_container(config, parts: _Components, lib: bytes, tmp: Path, dest: P
     as its binary, written in one pass: the model description and configuration as fmpy's
     container writer makes them (:func:`into_engine` then gives the same archive), the
     components' members copied compressed under ``resources/<stem>/``
-    (:mod:`synthesis.fmi.archives`: no member is compressed twice; those of a component's
-    archive that stores them are deflated once per process and file, read from the
+    (:mod:`synthesis.fmi.native.builders.archives`: no member is compressed twice; those of
+    a component's archive that stores them are deflated once per process and file, read from the
     component's own path in ``parts``)."""
     from fmpy.container_fmu import write_configuration
     from fmpy.model_description import write_model_description
 
-    from descent_fmus.synthesis.fmi.archives import (compressed_members, copied, deflated,
-                                                     write_archive)
+    from descent_fmus.synthesis.fmi.native.builders.archives import (
+        compressed_members, copied, deflated, write_archive)
     from descent_fmus.synthesis.fmi.description.units import units_into_model_description
     md = config.modelDescription           # as fmpy's create_container_fmu numbers them
     md.coSimulation.modelIdentifier = "container_fmu"
@@ -395,7 +395,8 @@ def write_ssp(wiring: Wiring, plant_fmu: Path, controller_fmu: Path, dest: Path)
                   {"startTime": "0", "stopTime": repr(wiring.stop_time)})
     # the plant FMU deflated once per process (its builder may store its members), the law
     # FMU as it is (compressed already: one per law)
-    from descent_fmus.synthesis.fmi.archives import compressed_file, deflated, stored, write_archive
+    from descent_fmus.synthesis.fmi.native.builders.archives import (
+        compressed_file, deflated, stored, write_archive)
     return write_archive(dest, [
         deflated("SystemStructure.ssd", ET.tostring(root, encoding="UTF-8", xml_declaration=True)),
         compressed_file(f"resources/{plant_fmu.name}", plant_fmu),

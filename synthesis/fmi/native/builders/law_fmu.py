@@ -30,7 +30,8 @@ from pathlib import Path
 
 from descent_fmus.models.controllers.network_operator import DESCRIPTIONS
 from descent_fmus.models.fmu_support import SAMPLE_PERIOD_DESCRIPTION
-from descent_fmus.synthesis.fmi.archives import copied, deflated, raw_members, write_archive
+from descent_fmus.synthesis.fmi.native.builders.archives import (copied, deflated, raw_members,
+                                                                 write_archive)
 from descent_fmus.synthesis.fmi.native.builders.build import (COMPILE_FLAGS, WRAPPER_FILES,
                                                               Variable, build_fmu, c_file,
                                                               find_compiler)
