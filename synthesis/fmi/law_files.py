@@ -97,14 +97,20 @@ def choose_law_fmu(law_fmu: str = "auto") -> tuple[str, str]:
 READABLE_SECONDS = 3.0
 
 
-class ReadableTimeout(Exception):
-    """SymPy took longer than :data:`READABLE_SECONDS` over a law's readable form."""
+class ReadableTimeout(BaseException):
+    """SymPy took longer than :data:`READABLE_SECONDS` over a law's readable form (a
+    BaseException: SymPy catches ``Exception`` in places, which would swallow it)."""
+
+
+#: after the limit, the timeout is raised again this often until it leaves SymPy
+READABLE_RETRY_SECONDS = 0.2
 
 
 @contextmanager
 def _time_limit(seconds: float):
-    """Raise :class:`ReadableTimeout` in this block after ``seconds`` (a real-time timer: only
-    in the main thread, where signals are delivered; elsewhere no limit)."""
+    """Raise :class:`ReadableTimeout` in this block after ``seconds`` and again every
+    :data:`READABLE_RETRY_SECONDS` until the block ends (a real-time timer: only in the main
+    thread, where signals are delivered; elsewhere no limit)."""
     if threading.current_thread() is not threading.main_thread() or not hasattr(signal,
                                                                                 "setitimer"):
         yield
@@ -114,19 +120,25 @@ def _time_limit(seconds: float):
         raise ReadableTimeout(f"SymPy took over {seconds:g} s")
 
     previous = signal.signal(signal.SIGALRM, expired)
-    signal.setitimer(signal.ITIMER_REAL, seconds)
+    signal.setitimer(signal.ITIMER_REAL, seconds, READABLE_RETRY_SECONDS)
     try:
         yield
     finally:
-        signal.setitimer(signal.ITIMER_REAL, 0)
-        signal.signal(signal.SIGALRM, previous)
+        while True:     # a timeout pending while the timer is disarmed: disarm again
+            try:
+                signal.setitimer(signal.ITIMER_REAL, 0)
+                signal.signal(signal.SIGALRM, previous)
+                break
+            except ReadableTimeout:
+                continue
 
 
 def _compute_readable(law) -> dict:
     try:
         with _time_limit(READABLE_SECONDS):
             return law.readable().to_dict()
-    except Exception as exc:   # SymPy failing on a pathological law: the law is still exported
+    except (Exception, ReadableTimeout) as exc:   # SymPy failing or too slow on a law: the
+        # law is still exported
         return {"text": law.formula(6), "error": f"{type(exc).__name__}: {exc}"}
 
 

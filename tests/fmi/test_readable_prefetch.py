@@ -134,3 +134,22 @@ def test_a_law_sympy_cannot_finish_gets_its_network_operator_print(tmp_path, mon
     monkeypatch.setattr(law_files, "READABLE_SECONDS", default)
     basic = _laws()[0]
     assert law_files._readable(basic) == basic.readable().to_dict()
+
+
+def test_the_time_limit_escapes_code_that_swallows_exceptions():
+    # SymPy catches Exception in places: a timeout raised there once was swallowed and the
+    # report waited without end (seen in CI).  The limit is a BaseException, raised again every
+    # READABLE_RETRY_SECONDS: it leaves a loop that swallows every Exception, within a second
+    # (oracle: the loop itself, which never ends on its own), and leaves no timer behind
+    import signal
+    import time
+    t0 = time.monotonic()
+    with pytest.raises(law_files.ReadableTimeout):
+        with law_files._time_limit(0.2):
+            while time.monotonic() - t0 < 30:
+                try:
+                    sum(range(10_000))
+                except Exception:        # noqa: BLE001 (the point of the test)
+                    pass
+    assert time.monotonic() - t0 < 1.0
+    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
