@@ -21,6 +21,7 @@
 """
 from __future__ import annotations
 
+import ctypes
 import errno
 import functools
 import inspect
@@ -29,7 +30,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from descent_fmus.synthesis.run.signals import RunInterrupted, graceful_signals
+from descent_fmus.synthesis.run.signals import RunInterrupted, check_stop, graceful_signals
 
 __all__ = ["guarded", "DiskSpaceError", "check_export_space", "export_bytes_per_law"]
 
@@ -140,7 +141,13 @@ def guarded(run):
         _NEED.clear()
         try:
             with graceful_signals():
-                return run(*args, **kwargs)
+                try:
+                    return run(*args, **kwargs)
+                except ctypes.ArgumentError:
+                    # a stop raised while ctypes converted a call's arguments (a numpy
+                    # array's from_param is Python code) comes out as ctypes' own error
+                    check_stop()
+                    raise
         except BaseException as exc:
             for ev in set(Evaluator.open_evaluators()) - before:
                 ev.close(wait=False)

@@ -204,3 +204,28 @@ def test_a_stop_inside_an_import_still_ends_as_a_stop(monkeypatch, capsys):
     monkeypatch.setattr(cli, "build_parser", lambda: Parser())
     assert cli.main([]) == 143
     assert "interrupted by SIGTERM: writing the results" in capsys.readouterr().err
+
+
+def test_a_stop_inside_ctypes_argument_conversion_still_ends_as_a_stop(tmp_path):
+    # A SIGTERM handled while ctypes converts a call's arguments (seen: numpy's from_param of
+    # the equivalence prober's matrix, in a fresh-clone CI run) comes out as ctypes'
+    # ArgumentError, which names the stop only in its text: the guarded run turns it back into
+    # the stop (exit 143 on the command line), as the same stop raised anywhere else
+    import ctypes
+
+    from descent_fmus.synthesis.run import signals
+    from descent_fmus.synthesis.run.guard import guarded
+    from descent_fmus.synthesis.run.signals import RunInterrupted
+
+    def run(problem, out, fmu_dir, resume=False):
+        signals._requested.append(signal.SIGTERM)       # the handler's record of the stop
+        raise ctypes.ArgumentError("argument 4: RunInterrupted: interrupted by SIGTERM")
+
+    with pytest.raises(RunInterrupted) as info:
+        guarded(run)(None, tmp_path / "run", None)
+    assert info.value.exit_code == 143
+
+    def broken(problem, out, fmu_dir, resume=False):   # no stop asked: ctypes' error stays
+        raise ctypes.ArgumentError("argument 1: wrong type")
+    with pytest.raises(ctypes.ArgumentError):
+        guarded(broken)(None, tmp_path / "run2", None)
