@@ -75,14 +75,18 @@ class GrayCodec:
         return ints.astype(np.int64)
 
     def encode(self, values) -> np.ndarray:
-        ints = self._ints(values)
-        gray = ints ^ (ints >> 1)
-        shifts = np.arange(self.bits_per - 1, -1, -1)
-        return ((gray[:, None] >> shifts[None, :]) & 1).astype(np.uint8).ravel()
+        return _gray_bits(self._ints(values), self.bits_per).ravel()
 
     def grid(self, values) -> list:
         """``decode(encode(values))`` (what the code can hold), without the bits."""
         return self._values(self._ints(values))
+
+
+def _gray_bits(ints, k: int) -> np.ndarray:
+    """The ``k``-bit Gray codes of the integers ``ints``, most significant bit first: one row
+    of 0/1 bytes per integer."""
+    gray = ints ^ (ints >> 1)
+    return ((gray[:, None] >> np.arange(k - 1, -1, -1)[None, :]) & 1).astype(np.uint8)
 
 
 #: [choice] Codes of at most this many bits per parameter decode through a table of every
@@ -103,8 +107,7 @@ def _decode_table(codec: GrayCodec) -> dict | None:
     table = _TABLES.get(key)
     if table is None:
         ints = np.arange(1 << k, dtype=np.int64)
-        gray = ints ^ (ints >> 1)
-        bits = ((gray[:, None] >> np.arange(k - 1, -1, -1)[None, :]) & 1).astype(np.uint8)
+        bits = _gray_bits(ints, k)
         values = GrayCodec(1, k, 0, codec.lo, codec.hi)._values(ints)
         table = _TABLES[key] = dict(zip((bytes(b) for b in bits), values))
     return table

@@ -319,8 +319,7 @@ class NetworkOperator:
         law.input_names = list(self.input_names)
         law.input_scale, law.input_offset = list(self.input_scale), list(self.input_offset)
         law._program = program
-        law._scaled = any(s != 1.0 for s in law.input_scale) or \
-            any(o != 0.0 for o in law.input_offset)
+        law._scaled = self._scaled           # the same scaling as this law
         return law
 
     @classmethod
