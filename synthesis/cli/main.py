@@ -114,7 +114,7 @@ def main(argv=None, last_words: list | None = None) -> int:
     from descent_fmus.models.controllers.law_interpreter import MatrixError
     from descent_fmus.models.params import ParameterError
     from descent_fmus.synthesis.fmi.slave import FMUError
-    from descent_fmus.synthesis.run.signals import RunInterrupted
+    from descent_fmus.synthesis.run.signals import RunInterrupted, as_stop
 
     import faulthandler
     if not faulthandler.is_enabled():
@@ -128,7 +128,7 @@ def main(argv=None, last_words: list | None = None) -> int:
             return int(args.func(args) or 0)
         except Exception as exc:
             # a stop that landed inside a C extension's import comes out as its ImportError
-            stop = _interruption(exc, RunInterrupted)
+            stop = as_stop(exc)
             if stop is not None and stop is not exc:
                 raise stop from None
             raise
@@ -177,18 +177,6 @@ def launched_as() -> str:
     except OSError:
         pass
     return shlex.quote(script)
-
-
-def _interruption(exc, kind):
-    """The ``kind`` exception in the cause/context chain of ``exc`` (itself included), or
-    None."""
-    seen = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, kind):
-            return exc
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return None
 
 
 def entry() -> None:

@@ -21,7 +21,6 @@
 """
 from __future__ import annotations
 
-import ctypes
 import errno
 import functools
 import inspect
@@ -30,7 +29,7 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from descent_fmus.synthesis.run.signals import RunInterrupted, check_stop, graceful_signals
+from descent_fmus.synthesis.run.signals import RunInterrupted, as_stop, graceful_signals
 
 __all__ = ["guarded", "DiskSpaceError", "check_export_space", "export_bytes_per_law"]
 
@@ -143,10 +142,12 @@ def guarded(run):
             with graceful_signals():
                 try:
                     return run(*args, **kwargs)
-                except ctypes.ArgumentError:
-                    # a stop raised while ctypes converted a call's arguments (a numpy
-                    # array's from_param is Python code) comes out as ctypes' own error
-                    check_stop()
+                except BaseException as exc:
+                    # a stop that came out as other code's error (an import it cut short,
+                    # ctypes converting a call's arguments) is reported as the stop it is
+                    stop = as_stop(exc)
+                    if stop is not None and stop is not exc:
+                        raise stop from None
                     raise
         except BaseException as exc:
             for ev in set(Evaluator.open_evaluators()) - before:

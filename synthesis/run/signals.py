@@ -34,7 +34,7 @@ import sys
 import threading
 
 __all__ = ["RunInterrupted", "graceful_signals", "check_stop", "stop_requested", "critical",
-           "watch_parent", "EXIT_CODES"]
+           "watch_parent", "as_stop", "EXIT_CODES"]
 
 #: Exit codes of ``descent-fmus`` (documented in the README).
 EXIT_CODES = {"done": 0, "user error": 2, "SIGINT": 128 + signal.SIGINT,
@@ -74,6 +74,26 @@ def check_stop() -> None:
     """Raise :class:`RunInterrupted` if a stop was requested."""
     if _requested:
         raise RunInterrupted(_requested[0])
+
+
+def as_stop(exc: BaseException) -> RunInterrupted | None:
+    """The stop ``exc`` stands for, or None.
+
+    A stop raised inside other code can come out as that code's own error: an import it cut
+    short raises ``ImportError`` with the stop as its cause, ctypes reports a stop raised while
+    it converted a call's arguments as its ``ArgumentError`` (the stop only in its text).  So
+    ``exc`` stands for a stop if it is one, if one is in its cause/context chain, or if a stop
+    has been requested (:func:`stop_requested`, inside :func:`graceful_signals`) when it comes
+    out.
+    """
+    seen = set()
+    link = exc
+    while link is not None and id(link) not in seen:
+        if isinstance(link, RunInterrupted):
+            return link
+        seen.add(id(link))
+        link = link.__cause__ or link.__context__
+    return RunInterrupted(_requested[0]) if _requested else None
 
 
 #: [choice] How often a stop deferred out of an FMU's code looks again whether the FMI call has

@@ -229,3 +229,29 @@ def test_a_stop_inside_ctypes_argument_conversion_still_ends_as_a_stop(tmp_path)
         raise ctypes.ArgumentError("argument 1: wrong type")
     with pytest.raises(ctypes.ArgumentError):
         guarded(broken)(None, tmp_path / "run2", None)
+
+
+def test_a_stop_that_cut_an_import_short_says_where_the_run_stands(tmp_path):
+    # A SIGTERM that lands inside a lazy import (seen in a fresh-clone CI run while the
+    # reference was computed) comes out as an ImportError caused by the stop.  The guarded run
+    # reports the stop itself, with where the checkpoint stands and that it can be resumed --
+    # not the bare stop the command line would otherwise dig out of the ImportError
+    import json
+
+    from descent_fmus.synthesis.run.guard import guarded
+    from descent_fmus.synthesis.run.signals import RunInterrupted
+
+    out = tmp_path / "run"
+
+    def run(problem, out, fmu_dir, resume=False):
+        out.mkdir()
+        (out / "checkpoint.json").write_text(json.dumps({"generation": 3, "simulated": 30}))
+        try:
+            raise RunInterrupted(signal.SIGTERM)
+        except RunInterrupted as stop:
+            raise ImportError("cannot import name 'minimize'") from stop
+
+    with pytest.raises(RunInterrupted) as info:
+        guarded(run)(None, out, None)
+    assert info.value.resumable and "generation 3" in info.value.where
+    assert info.value.exit_code == 143
