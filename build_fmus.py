@@ -78,6 +78,7 @@ def main(argv=None) -> int:
                                     [s for sy in systems for s in sy.closed_loops])
         built += native + build_fmi3_variants(native, out / "native" / "fmi3")
         built += build_loop_variants(native, out / "native" / "fmi3")
+    warm_caches(out, systems)
     if args.validate:
         from fmpy.validation import validate_fmu
         bad = 0
@@ -90,6 +91,46 @@ def main(argv=None) -> int:
             return 1
         print(f"fmpy validate: no problems in {len(built)} FMUs")
     return 0
+
+
+def warm_caches(out: Path, systems) -> None:
+    """[choice] Fill, once, what the main job would otherwise build on a fresh machine's first
+    run (docs/methods/run_loop.md, "A fresh machine's first run"): the C master, the
+    equivalence probes' library and the native interpreter law FMU (each compiled into the
+    cache folder under a key of its sources, compiler and flags: the main job finds them there,
+    and builds them itself when they are absent), matplotlib's font list and the package's
+    bytecode.  Skipped, with one line, where something is missing (no C compiler, a read-only
+    cache): nothing here is needed for the FMUs."""
+    t0 = time.perf_counter()
+    done = []
+    try:
+        from descent_fmus.synthesis.fmi.c_master_loop import master_library
+        from descent_fmus.synthesis.fmi.native.builders.law_fmu import interpreter_fmu
+        from descent_fmus.synthesis.run.probes import native_prober
+        master_library()
+        interpreter_fmu()
+        probed = set()
+        for system in systems:
+            for problem in (system.problems() if system.problems else ()):
+                if problem.wiring.name not in probed:
+                    probed.add(problem.wiring.name)
+                    native_prober(problem, problem.fmu_paths(out))
+        done.append("the C master, the probe library and the interpreter law FMU")
+    except Exception as exc:        # no compiler, a build error: the main job tries again
+        print(f"build_fmus.py: the native caches are left to the first run ({exc})")
+    try:
+        import matplotlib.font_manager  # noqa: F401  (writes its font list on first import)
+        done.append("matplotlib's font list")
+    except Exception as exc:
+        print(f"build_fmus.py: matplotlib's font list is left to the first run ({exc})")
+    if not sys.dont_write_bytecode:
+        import compileall
+        from descent_fmus import models, synthesis
+        ok = all(compileall.compile_dir(d, quiet=1) for m in (models, synthesis)
+                 for d in m.__path__)
+        done.append("the package's bytecode" + ("" if ok else " (some files failed)"))
+    print(f"warmed the caches: {', '.join(done) or 'nothing'} "
+          f"({time.perf_counter() - t0:.1f} s)")
 
 
 if __name__ == "__main__":
