@@ -222,6 +222,8 @@ def run_synthesize(args) -> int:
     if entry.needs_flights and problem.budget.flights < 1:
         raise CliError(f"method {args.method} needs a flight budget: give --flights N")
     export = _law_export(args)
+    from descent_fmus.synthesis.run import readable_ahead
+    readable_ahead.start(args.out)          # forked before any thread starts (see its module)
     _warm_interpreter(export)
     try:
         summary = run_synthesis(problem, args.out, fmu_folder(args), method=args.method,
@@ -231,6 +233,8 @@ def run_synthesize(args) -> int:
     except (RunDirError, SchedulerError, FMUNotFoundError, SystematicFailure,
             ResourceLimitError) as exc:
         raise CliError(str(exc)) from None
+    finally:
+        readable_ahead.stop()
     emit(args, {k: v for k, v in summary.items() if k != "pareto"},
          "\n".join(_summary_lines(problem, args, summary)))
     return 0

@@ -19,6 +19,7 @@ import numpy as np
 
 from descent_fmus.synthesis.fmi.law_files import (LawExport, choose_law_fmu, prefetch_readable,
                                                   readable_text)
+from descent_fmus.synthesis.run import readable_ahead
 from descent_fmus.synthesis.run.folder import write_json
 from descent_fmus.synthesis.run.guard import check_export_space
 from descent_fmus.synthesis.run.signals import check_stop
@@ -132,6 +133,7 @@ def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
     announce("writing the report")
     front = archive.sorted()
     laws = [cand.law for cand, _, _ in front]
+    readable_ahead.stop()       # what it computed during the search is in the cache folder
     # the figure's imports while the readable forms are computed in other processes
     prefetch_readable(laws, meanwhile=_import_pyplot)
     rows = _rows(problem, front, evaluator.evaluate(laws).extras)
