@@ -6,8 +6,8 @@ search leaves about half a core idle (its main process flies most CMA-ES generat
 ``descent-fmus synthesize`` therefore forks, before anything else starts, one process at the
 lowest priority (nice 19: it takes only CPU time nothing else wants) that watches the run's
 ``checkpoint.json`` and computes the readable form of every law in its Pareto archive that the
-cache folder does not hold yet, keeping each there (:func:`synthesis.fmi.law_files.
-prefetch_readable`, one law at a time).  The report stops it and reads the forms from the cache
+cache folder does not hold yet, keeping each there that SymPy made (:func:`_keep_form`; the
+same file :func:`synthesis.fmi.law_files.prefetch_readable` reads).  The report stops it and reads the forms from the cache
 folder, computing only those still missing, as before.  The forms are the same text either way
 (cached by the law's content, made by the same function), so results do not change; a
 machine without ``fork`` or a busy one just leaves more to the report.
@@ -58,7 +58,7 @@ def stop() -> None:
 def _watch(checkpoint: Path, parent: int) -> None:
     """The watcher's body: compute the missing readable forms of each new checkpoint's
     archive, newest checkpoint first, until stopped or its parent is gone."""
-    from descent_fmus.synthesis.fmi.law_files import _law_key, _readable_folder, prefetch_readable
+    from descent_fmus.synthesis.fmi.law_files import _law_key, _readable_folder
     from descent_fmus.synthesis.run.loop import load_archive
     from descent_fmus.synthesis.run.signals import watch_parent
 
@@ -87,10 +87,24 @@ def _watch(checkpoint: Path, parent: int) -> None:
             key = _law_key(law)
             if key is None or key in seen:
                 continue
-            prefetch_readable([law], processes=1)
+            _keep_form(folder, key, law)
             seen.add(key)
             if _changed(checkpoint, mtime):
                 break                     # a newer archive: its laws first
+
+
+def _keep_form(folder: Path, key: str, law) -> None:
+    """[choice] Keep a law's readable form only if SymPy made it: a form that failed or ran past
+    the time limit (a real-time limit, which this lowest-priority process on a busy machine can
+    pass where the report would not: seen in a fresh-machine A/B run at load 4, a law's form
+    became its network-operator print) is left to the report, which computes it as before."""
+    from descent_fmus.synthesis.fmi.law_files import _compute_readable, _keep
+    path = folder / f"{key}.json"
+    if path.exists():
+        return
+    d = _compute_readable(law)
+    if "error" not in d:
+        _keep(path, d)
 
 
 def _changed(checkpoint: Path, mtime) -> bool:

@@ -80,6 +80,36 @@ def test_the_watcher_keeps_each_new_checkpoints_forms(tmp_path, monkeypatch):
     assert not list(folder.glob(".*.tmp"))            # no half-written form left
 
 
+def test_a_form_sympy_did_not_make_is_left_to_the_report(tmp_path, monkeypatch):
+    # a form past the time limit in the low-priority watcher (a busy machine) must not stand
+    # in for SymPy's: the report computes it as before (oracle: law.readable(), alone)
+    monkeypatch.setenv("DESCENT_FMUS_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setattr(law_files, "_READABLE", {})
+    monkeypatch.setattr(readable_ahead, "NICE", 0)
+    laws = _laws(2)
+    alone = [law.readable().to_dict() for law in laws]
+    slow = law_files._law_key(laws[0])
+    real = law_files._compute_readable
+
+    def compute(law):                                  # what the watcher meets (forked copy)
+        if law_files._law_key(law) == slow:
+            return {"text": law.formula(6), "error": "ReadableTimeout: SymPy took over 3 s"}
+        return real(law)
+    monkeypatch.setattr(law_files, "_compute_readable", compute)
+    folder = law_files._readable_folder()
+    readable_ahead.start(tmp_path)
+    try:
+        _checkpoint(tmp_path, laws)
+        assert len(_wait_for(folder, 1)) == 1
+        time.sleep(0.5)                                # time for a wrong second file
+    finally:
+        readable_ahead.stop()
+    assert [p.stem for p in folder.glob("*.json")] == [law_files._law_key(laws[1])]
+    monkeypatch.setattr(law_files, "_compute_readable", real)
+    law_files.prefetch_readable(laws, processes=1)
+    assert [law_files.law_document(law)["readable"] for law in laws] == alone
+
+
 def test_stop_ends_a_watcher_with_nothing_to_do(tmp_path, monkeypatch):
     monkeypatch.setenv("DESCENT_FMUS_CACHE", str(tmp_path / "cache"))
     process = readable_ahead.start(tmp_path)          # no checkpoint ever appears
