@@ -207,6 +207,12 @@ def _warm_interpreter(export) -> None:
     threading.Thread(target=build, name="interpreter-fmu", daemon=True).start()
 
 
+def _archive_laws(checkpoint: dict) -> list:
+    """The laws of a checkpoint's Pareto archive (for :mod:`synthesis.run.readable_ahead`)."""
+    from descent_fmus.synthesis.run.loop import load_archive
+    return [c.law for c, _, _ in load_archive(checkpoint["archive"]).items]
+
+
 def run_synthesize(args) -> int:
     from descent_fmus.synthesis.methods.registry import UnknownMethodError, entry_of
     from descent_fmus.synthesis.paths import FMUNotFoundError
@@ -223,7 +229,7 @@ def run_synthesize(args) -> int:
         raise CliError(f"method {args.method} needs a flight budget: give --flights N")
     export = _law_export(args)
     from descent_fmus.synthesis.run import readable_ahead
-    readable_ahead.start(args.out)          # forked before any thread starts (see its module)
+    readable_ahead.start(args.out, _archive_laws)   # forked before any thread starts
     _warm_interpreter(export)
     try:
         summary = run_synthesis(problem, args.out, fmu_folder(args), method=args.method,

@@ -29,14 +29,16 @@ NICE = 19
 _RUNNING: list = []
 
 
-def start(out: Path):
+def start(out: Path, laws_of):
     """Fork the watcher of ``out/checkpoint.json`` (see the module docstring); None where this
-    platform cannot fork.  Call it before any thread is started (a fork copies no thread, and
+    platform cannot fork.  ``laws_of(checkpoint)``: the laws of a checkpoint's archive (the run
+    loop's ``load_archive``; passed in, so that this module does not import the loop that
+    imports the report).  Call it before any thread is started (a fork copies no thread, and
     a lock held by one would stay held in the child)."""
     import multiprocessing
     try:
         process = multiprocessing.get_context("fork").Process(
-            target=_watch, args=(Path(out) / "checkpoint.json", os.getpid()),
+            target=_watch, args=(Path(out) / "checkpoint.json", os.getpid(), laws_of),
             name="descent-fmus-readable-ahead", daemon=True)
         process.start()
     except (ValueError, OSError):          # no fork here: the report computes every form
@@ -55,11 +57,10 @@ def stop() -> None:
         process.join(0.5)
 
 
-def _watch(checkpoint: Path, parent: int) -> None:
+def _watch(checkpoint: Path, parent: int, laws_of) -> None:
     """The watcher's body: compute the missing readable forms of each new checkpoint's
     archive, newest checkpoint first, until stopped or its parent is gone."""
     from descent_fmus.synthesis.fmi.law_files import _law_key, _readable_folder
-    from descent_fmus.synthesis.run.loop import load_archive
     from descent_fmus.synthesis.run.signals import watch_parent
 
     folder = _readable_folder()
@@ -79,8 +80,7 @@ def _watch(checkpoint: Path, parent: int) -> None:
             continue
         mtime = stamp
         try:
-            state = json.loads(checkpoint.read_text())
-            laws = [c.law for c, _, _ in load_archive(state["archive"]).items]
+            laws = laws_of(json.loads(checkpoint.read_text()))
         except (OSError, ValueError, KeyError, TypeError):
             continue                      # being replaced: read again at the next look
         for law in laws:

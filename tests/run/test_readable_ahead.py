@@ -18,6 +18,7 @@ from descent_fmus.synthesis.methods.base import Candidate
 from descent_fmus.synthesis.methods.pareto import ParetoArchive
 from descent_fmus.synthesis.run import readable_ahead
 from descent_fmus.synthesis.run.folder import write_json
+from descent_fmus.synthesis.cli.synthesize import _archive_laws
 from descent_fmus.synthesis.run.loop import archive_state
 
 pytestmark = pytest.mark.skipif(not hasattr(os, "fork"), reason="needs fork")
@@ -60,7 +61,7 @@ def test_the_watcher_keeps_each_new_checkpoints_forms(tmp_path, monkeypatch):
     laws = _laws(3)
     alone = [law.readable().to_dict() for law in laws]
     folder = law_files._readable_folder()
-    process = readable_ahead.start(run)
+    process = readable_ahead.start(run, _archive_laws)
     try:
         assert process is not None and process.is_alive()
         _checkpoint(run, laws[:2])
@@ -97,7 +98,7 @@ def test_a_form_sympy_did_not_make_is_left_to_the_report(tmp_path, monkeypatch):
         return real(law)
     monkeypatch.setattr(law_files, "_compute_readable", compute)
     folder = law_files._readable_folder()
-    readable_ahead.start(tmp_path)
+    readable_ahead.start(tmp_path, _archive_laws)
     try:
         _checkpoint(tmp_path, laws)
         assert len(_wait_for(folder, 1)) == 1
@@ -112,7 +113,7 @@ def test_a_form_sympy_did_not_make_is_left_to_the_report(tmp_path, monkeypatch):
 
 def test_stop_ends_a_watcher_with_nothing_to_do(tmp_path, monkeypatch):
     monkeypatch.setenv("DESCENT_FMUS_CACHE", str(tmp_path / "cache"))
-    process = readable_ahead.start(tmp_path)          # no checkpoint ever appears
+    process = readable_ahead.start(tmp_path, _archive_laws)   # no checkpoint appears
     assert process is not None
     t0 = time.monotonic()
     readable_ahead.stop()
