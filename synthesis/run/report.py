@@ -222,7 +222,7 @@ def _draw_aside(problem, rows, summary, path: Path):
     import multiprocessing
     try:
         process = multiprocessing.get_context("fork").Process(
-            target=plot_front, args=(problem, rows, summary, path), daemon=True,
+            target=_draw_here, args=(problem, rows, summary, path), daemon=True,
             name="descent-fmus-figure")
         process.start()
     except (ValueError, OSError):           # no fork here
@@ -238,6 +238,17 @@ def _draw_aside(problem, rows, summary, path: Path):
         if ok and (process is None or process.exitcode != 0):
             plot_front(problem, rows, summary, path)
     return finish
+
+
+def _draw_here(problem, rows, summary, path: Path) -> None:
+    """The drawing process's body: ended by the plain SIGTERM (not the run's stop handler),
+    deaf to Ctrl-C (the run handles it), silent (a failure is drawn and reported again by the
+    run's process)."""
+    import signal
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.dup2(os.open(os.devnull, os.O_WRONLY), 2)
+    plot_front(problem, rows, summary, path)
 
 
 def _import_pyplot() -> None:
