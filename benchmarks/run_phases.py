@@ -4,10 +4,11 @@ Runs ``descent-fmus synthesize reentry`` (the default problem and budget, one se
 the same session on the native FMUs and prints the phase split of each from its
 ``summary.json`` (``timings``), side by side:
 
-* **native, cold cache** -- an empty cache folder (``$DESCENT_FMUS_CACHE``): what a fresh
-  machine's first run pays -- the S1 bounds (read from the package's shipped copy when its
-  content key is current, else solved), the C master's and the interpreter law FMU's compiles,
-  every Pareto law's readable formula;
+* **native, cold cache** -- an empty cache folder (``$DESCENT_FMUS_CACHE``): what a run pays
+  after the cache folder was cleared -- the S1 bounds (read from the package's shipped copy
+  when its content key is current, else solved), the C master's, the probes' and the
+  interpreter law FMU's compiles (on a fresh machine ``build_fmus.py`` has made them: see
+  ``--cold``), every Pareto law's readable formula;
 * **native, warm cache** -- the same command again with the cache the first run left.
 
 With ``--pythonfmu`` a run on the pythonfmu FMUs only (a folder without ``native/``, the Python
