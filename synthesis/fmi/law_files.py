@@ -94,6 +94,9 @@ def choose_law_fmu(law_fmu: str = "auto") -> tuple[str, str]:
 #: asks whether its argument is zero, and SymPy expands the powers to answer) ran for minutes
 #: without end in a run's report; a law usually takes 30-50 ms.  Past the limit the law's
 #: network-operator print stands in (its ``error`` says so) and is kept like any other form.
+#: The seconds are the process's CPU time, not the clock's: a busy machine (other jobs taking
+#: the core) must not turn a form SymPy makes into the stand-in, or a seeded run's
+#: ``pareto.json`` would depend on the machine's load.
 READABLE_SECONDS = 3.0
 
 
@@ -108,9 +111,10 @@ READABLE_RETRY_SECONDS = 0.2
 
 @contextmanager
 def _time_limit(seconds: float):
-    """Raise :class:`ReadableTimeout` in this block after ``seconds`` and again every
-    :data:`READABLE_RETRY_SECONDS` until the block ends (a real-time timer: only in the main
-    thread, where signals are delivered; elsewhere no limit)."""
+    """Raise :class:`ReadableTimeout` in this block after ``seconds`` of the process's CPU
+    time and again every :data:`READABLE_RETRY_SECONDS` until the block ends (a CPU-time
+    timer, ``ITIMER_PROF``: only in the main thread, where signals are delivered; elsewhere no
+    limit)."""
     if threading.current_thread() is not threading.main_thread() or not hasattr(signal,
                                                                                 "setitimer"):
         yield
@@ -119,15 +123,15 @@ def _time_limit(seconds: float):
     def expired(signum, frame):
         raise ReadableTimeout(f"SymPy took over {seconds:g} s")
 
-    previous = signal.signal(signal.SIGALRM, expired)
-    signal.setitimer(signal.ITIMER_REAL, seconds, READABLE_RETRY_SECONDS)
+    previous = signal.signal(signal.SIGPROF, expired)
+    signal.setitimer(signal.ITIMER_PROF, seconds, READABLE_RETRY_SECONDS)
     try:
         yield
     finally:
         while True:     # a timeout pending while the timer is disarmed: disarm again
             try:
-                signal.setitimer(signal.ITIMER_REAL, 0)
-                signal.signal(signal.SIGALRM, previous)
+                signal.setitimer(signal.ITIMER_PROF, 0)
+                signal.signal(signal.SIGPROF, previous)
                 break
             except ReadableTimeout:
                 continue

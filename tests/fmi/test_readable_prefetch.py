@@ -140,16 +140,35 @@ def test_the_time_limit_escapes_code_that_swallows_exceptions():
     # SymPy catches Exception in places: a timeout raised there once was swallowed and the
     # report waited without end (seen in CI).  The limit is a BaseException, raised again every
     # READABLE_RETRY_SECONDS: it leaves a loop that swallows every Exception, within a second
-    # (oracle: the loop itself, which never ends on its own), and leaves no timer behind
+    # of CPU time (the limit's clock; oracle: the loop itself, which never ends on its own),
+    # and leaves no timer behind
     import signal
     import time
-    t0 = time.monotonic()
+    t0, c0 = time.monotonic(), time.process_time()
     with pytest.raises(law_files.ReadableTimeout):
         with law_files._time_limit(0.2):
-            while time.monotonic() - t0 < 30:
+            while time.monotonic() - t0 < 60:
                 try:
                     sum(range(10_000))
                 except Exception:        # noqa: BLE001 (the point of the test)
                     pass
-    assert time.monotonic() - t0 < 1.0
-    assert signal.getitimer(signal.ITIMER_REAL) == (0.0, 0.0)
+    assert time.process_time() - c0 < 1.0
+    assert signal.getitimer(signal.ITIMER_PROF) == (0.0, 0.0)
+
+
+def test_the_time_limit_counts_cpu_time_not_the_clock():
+    # A busy machine stretches the clock, not the CPU time SymPy needs: the limit counts this
+    # process's CPU time (oracle: time.process_time against time.monotonic), so that a law's
+    # form never depends on the machine's load.  Here the block waits 0.6 s of the clock with
+    # almost no CPU time -- over a 0.3 s limit of the clock, far under one of CPU time -- and
+    # then burns CPU until the limit stops it
+    import time
+    t0, c0 = time.monotonic(), time.process_time()
+    with pytest.raises(law_files.ReadableTimeout):
+        with law_files._time_limit(0.3):
+            time.sleep(0.6)                          # no timeout here: no CPU time spent
+            slept = time.monotonic() - t0
+            while time.monotonic() - t0 < 30:
+                sum(range(10_000))
+    cpu = time.process_time() - c0
+    assert slept >= 0.6 and 0.25 <= cpu <= 1.0, (slept, cpu)
