@@ -95,9 +95,10 @@ def _watch(checkpoint: Path, parent: int, laws_of) -> None:
 
 def _keep_form(folder: Path, key: str, law) -> None:
     """[choice] Keep a law's readable form only if SymPy made it: a form that failed or ran past
-    the time limit (a real-time limit, which this lowest-priority process on a busy machine can
-    pass where the report would not: seen in a fresh-machine A/B run at load 4, a law's form
-    became its network-operator print) is left to the report, which computes it as before."""
+    the time limit is left to the report, which computes it as before (the limit counts CPU
+    time, the same in this process as in the report's; when it was a real-time limit, this
+    lowest-priority process on a busy machine passed it where the report would not: seen in a
+    fresh-machine A/B run at load 4, a law's form became its network-operator print)."""
     from descent_fmus.synthesis.fmi.law_files import _compute_readable, _keep
     path = folder / f"{key}.json"
     if path.exists():
