@@ -11,7 +11,8 @@ import numpy as np
 
 from descent_fmus.synthesis.methods.pareto import dominance_counts
 
-__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "touched_constants", "upstream"]
+__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "preserving_constants",
+           "touched_constants", "upstream"]
 
 #: [choice] a new island is started only when the flights left hold this many epochs of the
 #: structure search (docs/methods/network_operator.md, "islands")
@@ -60,6 +61,39 @@ def touched_constants(psi0, psi, nx: int, m: int) -> list:
     return []
 
 
+def preserving_constants(parent, child, idx, points, lo=-np.inf, hi=np.inf) -> list:
+    """A network morphism: ``child``'s constants ``idx`` (the others kept) chosen by least
+    squares so that its clipped outputs match ``parent``'s at ``points`` (plant units); the
+    child's own constants when the fit is no closer.  [choice] the clipped outputs (what is
+    flown) are matched, not the raw ones: docs/methods/network_operator.md "Function-preserving
+    starts"."""
+    from scipy.optimize import least_squares
+    points = np.asarray(points, float)
+    bounds = np.asarray(parent.bounds, float)
+    want = np.clip(np.asarray(parent.raw_points(points), float), bounds[:, 0], bounds[:, 1])
+    q0 = np.array(child.q, float)
+
+    def resid(z):
+        q = q0.copy()
+        q[idx] = z
+        got = np.asarray(child.with_q(list(q)).raw_points(points), float)
+        r = (np.clip(got, bounds[:, 0], bounds[:, 1]) - want).ravel()
+        return np.where(np.isfinite(r), r, 1e3)
+
+    start = np.clip(q0[idx], lo, hi)
+    best = float(np.sum(resid(start) ** 2))
+    for z0 in (start, np.where(start == 0.0, 1.0, start)):
+        try:
+            sol = least_squares(resid, z0, bounds=(lo, hi), max_nfev=40 * len(idx))
+        except (ValueError, FloatingPointError):
+            continue
+        if 2 * sol.cost < best:
+            best, start = 2 * sol.cost, sol.x
+    q = q0.copy()
+    q[idx] = start
+    return list(q)
+
+
 class FormSearch:
     """Mixed into the variational GA: uses its ``pop``, ``F``, ``CV``, ``target``, ``cfg``,
     ``refine_cfg``, ``stats`` and ``_structure_key``."""
@@ -97,6 +131,27 @@ class FormSearch:
             seen.add(key)
         self.stats["children_new_form"] = self.stats.get("children_new_form", 0) + sum(out)
         return out
+
+    def _morph(self, child, parent) -> None:
+        """A child of another form than ``parent`` takes function-preserving constants
+        (``morph`` probe points; :func:`preserving_constants` on the constants its change
+        touched): it starts where its parent is.  Costs no flights."""
+        n, codec = self.cfg.morph, self.params
+        if not n or self.structure is None:
+            return
+        psi0, psi = self.matrix(parent), self.matrix(child)
+        if np.array_equal(psi0, psi):
+            return
+        idx = touched_constants(psi0, psi, self.structure.n_sources - codec.n, codec.n)
+        mom = self.decode(psi0, codec.decode(child.bits))
+        kid = self.decode(psi, codec.decode(child.bits))
+        if not idx or not hasattr(kid, "raw_points"):
+            return
+        from descent_fmus.synthesis.methods.structures import probe_inputs
+        q = preserving_constants(mom, kid, idx, probe_inputs(mom, n), codec.lo,
+                                 codec.hi - codec.step)
+        child.bits = codec.encode(q)
+        self.stats["morphed"] = self.stats.get("morphed", 0) + 1
 
     def _screen_members(self) -> list:
         """The screening's candidates (``screen``): up to ``screen`` new forms (the eligible

@@ -74,6 +74,10 @@ class GAConfig:
     equivalence_probes: int = setting(16, "input points on which a law equivalent to one "
                                           "flown before is recognised and not flown again "
                                           "(0 = off)", 0, 256)
+    # [choice] off by default: docs/methods/network_operator.md "Function-preserving starts"
+    morph: int = setting(0, "probe points on which a child of a new form takes constants that "
+                            "match its parent's law (the constants its change touched, by "
+                            "least squares; 0 = off)", 0, 256)
 
     def __post_init__(self):
         check_settings(self, "ga.")

@@ -278,6 +278,7 @@ class VariationalGA(FormSearch, Method):
                     self._mutate(child, bits=False)
                 else:
                     self._mutate(child)
+                self._morph(child, pa if len(children) % 2 == 0 else pb)
                 children.append(child)
         return children
 
