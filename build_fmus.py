@@ -119,7 +119,11 @@ def warm_caches(out: Path, systems) -> None:
     except Exception as exc:        # no compiler, a build error: the main job tries again
         print(f"build_fmus.py: the native caches are left to the first run ({exc})")
     try:
-        import matplotlib.font_manager  # noqa: F401  (writes its font list on first import)
+        # matplotlib writes its font list on its first import in a process: a process of its
+        # own, so that it is written even where this one has imported matplotlib already
+        import subprocess
+        subprocess.run([sys.executable, "-c", "import matplotlib.font_manager"], check=True,
+                       capture_output=True, timeout=300)
         done.append("matplotlib's font list")
     except Exception as exc:
         print(f"build_fmus.py: matplotlib's font list is left to the first run ({exc})")
