@@ -143,8 +143,8 @@ class FormSearch:
         if np.array_equal(psi0, psi):
             return
         idx = touched_constants(psi0, psi, self.structure.n_sources - codec.n, codec.n)
-        mom = self.decode(psi0, codec.decode(child.bits))
-        kid = self.decode(psi, codec.decode(child.bits))
+        q = codec.decode(child.bits)
+        mom, kid = self.decode(psi0, q), self.decode(psi, q)
         if not idx or not hasattr(kid, "raw_points"):
             return
         from descent_fmus.synthesis.methods.structures import probe_inputs
