@@ -13,6 +13,9 @@ in :func:`synthesis.paths.cache_dir`, keyed by the compiler and the source), loa
 process.  :class:`CMasterLoop` extracts the two FMUs, loads their binaries through it and flies
 with one ``dm_fly`` call: a flight sets only the start values that differ from the FMUs'
 declared ones (a law's come as :class:`~synthesis.fmi.start_values.StartValues`: names, array).
+:meth:`CMasterLoop.run_many` flies a batch of flights with one ``dm_fly_many`` call (the same
+``dm_fly`` per flight, in C): the start values packed as arrays for the whole batch, the final
+outputs read from arrays.
 """
 from __future__ import annotations
 
@@ -50,6 +53,11 @@ class MasterUnavailable(RuntimeError):
 class _Values(ctypes.Structure):
     _fields_ = [("nr", ctypes.c_size_t), ("rvr", ctypes.c_void_p), ("rval", ctypes.c_void_p),
                 ("ni", ctypes.c_size_t), ("ivr", ctypes.c_void_p), ("ival", ctypes.c_void_p)]
+
+
+class _BatchValues(ctypes.Structure):
+    _fields_ = [("nr", ctypes.c_void_p), ("rvr", ctypes.c_void_p), ("rval", ctypes.c_void_p),
+                ("ni", ctypes.c_void_p), ("ivr", ctypes.c_void_p), ("ival", ctypes.c_void_p)]
 
 
 class _Outputs(ctypes.Structure):
@@ -95,6 +103,8 @@ def _dll(path: Path):
                                     d, l_]
             dll.dm_fly.restype = i
             dll.dm_fly.argtypes = [p, d, p, p, p, ctypes.POINTER(l_), ctypes.POINTER(i)]
+            dll.dm_fly_many.restype = l_
+            dll.dm_fly_many.argtypes = [p, l_, l_, d, p, p, p, p, p]
             _LOADED[path] = dll
         return dll
 
@@ -252,6 +262,102 @@ class CMasterLoop:
         return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
                                 stopped=bool(self._stopped.value), steps=k,
                                 t_final=min(k * w.step, t_end), start=dict(plant_values or {}))
+
+    def run_many(self, flights, stop_time: float | None = None) -> list:
+        """Flights ``[(plant values, controller values), ...]`` from t = 0 in one
+        ``dm_fly_many`` call: per flight the :class:`ClosedLoopResult` :meth:`run` gives, or the
+        exception it would raise (a failed flight does not stop the others)."""
+        t_end = self.wiring.stop_time if stop_time is None else float(stop_time)
+        if not (t_end > 0 and math.isfinite(t_end)):
+            raise ValueError(f"need a finite stop time > 0, got {t_end}")
+        if self._m is None:
+            raise FMUError(f"{self.wiring.name} (native-c): the loop is closed")
+        out: list = [None] * len(flights)
+        packed = [self._pack(role, [f[k] for f in flights])
+                  for k, role in enumerate(("plant", "controller"))]
+        if any(p is None for p in packed):        # values by other names: one flight a call
+            return [self._run_one(p, c, t_end) for p, c in flights]
+        errors = {**packed[0][1], **packed[1][1]}
+        if errors:                                # refused values: the rest flies without them
+            good = [k for k in range(len(flights)) if k not in errors]
+            for k, r in zip(good, self.run_many([flights[k] for k in good], t_end)):
+                out[k] = r
+            for k, exc in errors.items():
+                out[k] = exc
+            return out
+        return self._fly_packed(flights, packed[0][0], packed[1][0], t_end)
+
+    def _run_one(self, plant_values, controller_values, t_end):
+        try:
+            return self.run(plant_values, controller_values, stop_time=t_end)
+        except Exception as exc:        # as a flight of run() would raise it
+            return exc
+
+    def _pack(self, role: str, values: list):
+        """``(arrays, errors)`` of one component's start values over a batch
+        (:meth:`~synthesis.fmi.native_loop._Layout.fill_many`; no values: zero counts), or None
+        when the flights name different values."""
+        n = len(values)
+        if not any(values):
+            zero = np.zeros(n, dtype=np.dtype(ctypes.c_long))
+            return (zero, np.zeros(1, np.uint32), np.zeros(1), zero, np.zeros(1, np.uint32),
+                    np.zeros(1, np.int32)), {}
+        seen: dict = {}
+        rows = []
+        for v in values:
+            got = seen.get(id(v))
+            if got is None:
+                try:
+                    got = seen[id(v)] = self._layouts.get(role, v) if v else None
+                except (KeyError, TypeError):     # each flight says so (run_one)
+                    return None
+            if got is None:
+                return None
+            rows.append(got)
+        lay = rows[0][0]
+        if any(r[0] is not lay for r in rows):
+            return None
+        return lay.fill_many(np.stack([r[1] for r in rows]))
+
+    def _fly_packed(self, flights, plant, ctrl, t_end: float) -> list:
+        """The flights of a packed batch (no refused values): one ``dm_fly_many`` call, again
+        after each failed flight from the next one."""
+        w, n, a = self.wiring, len(flights), ctypes.addressof
+        o = self._outputs
+        bufs = {"Real": np.zeros((n, max(o.nr, 1))), "Integer": np.zeros((n, max(o.ni, 1)),
+                                                                          np.int32),
+                "Boolean": np.zeros((n, max(o.nb, 1)), np.int32)}
+        steps = np.zeros(n, dtype=np.dtype(ctypes.c_long))
+        stopped = np.zeros(n, dtype=np.int32)
+        outs = _Outputs(o.nr, o.ni, o.nb, o.rvr, o.ivr, o.bvr, bufs["Real"].ctypes.data,
+                        bufs["Integer"].ctypes.data, bufs["Boolean"].ctypes.data)
+        pv, cv = (_BatchValues(*(x.ctypes.data for x in arrays)) for arrays in (plant, ctrl))
+        failed, k = {}, 0
+        while k < n:
+            k = self._dll.dm_fly_many(self._m, k, n, t_end, a(pv), a(cv), a(outs),
+                                      steps.ctypes.data, stopped.ctypes.data)
+            if k < n:
+                said = (self._dll.dm_message(self._m) or b"").decode(errors="replace")
+                what = f"{w.name} (native-c): the flight"
+                failed[k] = FMUError(f"{what} failed: {said}" if said else f"{what} failed")
+                k += 1
+        names = self._out_names
+        ints = [(t, names[t], bufs[t].tolist()) for t in ("Integer", "Boolean") if names[t]]
+        reals, steps_l, stopped_l = bufs["Real"].tolist(), steps.tolist(), stopped.tolist()
+        out = []
+        for i, (pvals, _) in enumerate(flights):
+            if i in failed:
+                out.append(failed[i])
+                continue
+            final = dict(zip(names["Real"], reals[i]))
+            for _, nm, rows in ints:
+                final.update(zip(nm, rows[i]))
+            k = steps_l[i]
+            out.append(ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
+                                        stopped=bool(stopped_l[i]), steps=k,
+                                        t_final=min(k * w.step, t_end),
+                                        start=dict(pvals or {})))
+        return out
 
     def close(self) -> None:
         m, self._m = self._m, None

@@ -123,6 +123,28 @@ class _Layout:
             ival_v[:len(idd)] = v[idd]
         return len(rd), len(idd)
 
+    def fill_many(self, V: np.ndarray) -> tuple:
+        """:meth:`fill` of every row of ``V`` (one flight's values a row) at once, packed as a
+        batch of flights takes them (``dm_fly_many``): ``(arrays, errors)``, ``arrays`` the
+        Reals and Integers per row (C longs), then the Reals' value references and values and
+        the Integers' (the rows' entries one after the other, each row's in :meth:`fill`'s
+        order), ``errors`` ``{row: ValueError}`` for the rows :meth:`fill` would refuse."""
+        rows, cols = np.nonzero(V != self.start)          # row by row, as flatnonzero per row
+        real = self.is_real[cols]
+        values = V[rows, cols]
+        errors = {}
+        bad = real & ~np.isfinite(values)
+        for r in np.unique(rows[bad]).tolist():
+            k = int(cols[bad & (rows == r)][0])
+            errors[r] = ValueError(f"value of {self.names[k]} must be finite, got {V[r, k]!r}")
+        n, c_long = len(V), np.dtype(ctypes.c_long)
+        arrays = (np.bincount(rows[real], minlength=n).astype(c_long),
+                  np.ascontiguousarray(self.vr[cols[real]]), np.ascontiguousarray(values[real]),
+                  np.bincount(rows[~real], minlength=n).astype(c_long),
+                  np.ascontiguousarray(self.vr[cols[~real]]),
+                  values[~real].astype(np.int32))
+        return arrays, errors
+
 
 class Layouts:
     """The :class:`_Layout` of each ``(role, names)`` met so far (a law's names: the same tuple

@@ -65,8 +65,7 @@ class Runner:
     def flights(self, loop: Loop, problem, law) -> list:
         """The flights of ``law`` (all initial states, or fewer if a race stopped it); each
         result carries its start values (``result.start``)."""
-        # the law's start values and the problem's controller mode, in the one form
-        sv = StartValues.of_law(law).merged(problem.controller_values)
+        sv = _law_values(problem, law)
         record = bool(problem.record)
         states = problem.initial_states
         stops = set(self.race.sizes) if self.race is not None else set()
@@ -77,3 +76,35 @@ class Runner:
             if n in stops and n < len(states) and not self.race.proceed(results):
                 break
         return results
+
+    def batch_flights(self, loop: Loop, problem, laws) -> list | None:
+        """:meth:`flights` of each of ``laws`` in one call of the loop's ``run_many`` (the C
+        master's batch): per law its flights, or the exception :meth:`flights` would raise (the
+        first failing flight's, in the order of the initial states).  None where a batch does
+        not apply: racing, recording, or a loop without ``run_many``."""
+        run_many = getattr(loop, "run_many", None)
+        if run_many is None or self.race is not None or problem.record:
+            return None
+        states = problem.initial_states
+        out, flights = [], []
+        for law in laws:
+            try:
+                sv = _law_values(problem, law)
+            except Exception as exc:        # as flights() would raise it
+                out.append(exc)
+                continue
+            out.append(len(flights))
+            flights.extend((s, sv) for s in states)
+        results = run_many(flights)
+        m = len(states)
+        for i, k in enumerate(out):
+            if not isinstance(k, int):
+                continue
+            mine = results[k:k + m]
+            out[i] = next((r for r in mine if isinstance(r, BaseException)), mine)
+        return out
+
+
+def _law_values(problem, law) -> StartValues:
+    """The law's start values and the problem's controller mode, in the one form."""
+    return StartValues.of_law(law).merged(problem.controller_values)

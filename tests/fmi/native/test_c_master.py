@@ -138,3 +138,56 @@ def test_bad_input_and_failing_flights(fmu_dir, tmp_path):
                 if not item.filename.startswith("binaries/"):
                     dst.writestr(item, src.read(item.filename))
         CMasterLoop(problem.wiring, broken, twins[1])
+
+
+def test_a_batch_flies_as_its_flights_one_by_one_failures_in_the_middle(fmu_dir):
+    # Oracle: run() of each flight on the same loop (dm_fly per flight) -- run_many's one
+    # dm_fly_many call must give the same final outputs bit for bit, the same steps and stop
+    # flags, and for a failing flight the same exception (type and text) as run(), without
+    # disturbing the flights after it: a value the twin refuses at initialisation (its dt_pred
+    # check: a failure inside dm_fly_many) and a non-finite parameter (refused before the
+    # call), both in the middle of the batch
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem("reentry-guided")
+    twins = _twins_or_skip(problem, fmu_dir)
+    law = problem.basic()
+    names, values = law.start_array()
+    names = names + ("replan", "dt_pred")
+    values = np.concatenate([values, [1.0, 2.0]])
+    k = next(i for i, n in enumerate(names) if n.startswith("q["))
+    rng = np.random.default_rng(3)
+    ctrl = []
+    for _ in range(7):
+        v = values.copy()
+        v[k] *= 1.0 + 0.2 * rng.standard_normal()
+        ctrl.append(v)
+    ctrl[2][-1] = 1e-4                    # refused by the twin
+    ctrl[4][k] = math.nan                 # refused by the loop
+    states = problem.initial_states[:2]
+    flights = [(s, StartValues(names, c)) for c in ctrl for s in states]
+    with CMasterLoop(problem.wiring, *twins) as cm:
+        want = []
+        for s, c in flights:
+            try:
+                want.append(cm.run(s, c))
+            except (FMUError, ValueError) as exc:
+                want.append(exc)
+        got = cm.run_many(flights)
+        # values by other names than the batch's first (a dict): one call a flight, same results
+        mixed = cm.run_many(flights[:2] + [(states[0], law.start_values())])
+        alone = cm.run(states[0], law.start_values())
+    assert len(got) == len(flights)
+    failed = []
+    for i, (w, g) in enumerate(zip(want, got)):
+        if isinstance(w, Exception):
+            assert type(g) is type(w) and str(g) == str(w)
+            failed.append(i)
+            continue
+        _same(g.final, w.final)
+        assert (g.steps, g.stopped, g.t_final, g.start) == (w.steps, w.stopped, w.t_final,
+                                                              w.start)
+    assert failed == [4, 5, 8, 9]
+    assert isinstance(got[4], FMUError) and "dt_pred" in str(got[4])
+    assert isinstance(got[8], ValueError) and "must be finite" in str(got[8])
+    _same(mixed[0].final, want[0].final)
+    _same(mixed[2].final, alone.final)

@@ -293,3 +293,37 @@ DM_EXPORT int dm_fly(DmMaster *m, double t_end, const DmValues *plant, const DmV
     }
     return 0;
 }
+
+/* The values of flight k of a batch (the offsets: the counts of the flights before it). */
+static void batch_values(const DmBatchValues *b, long k, long r0, long i0, DmValues *v)
+{
+    v->nr = (size_t)b->nr[k], v->rvr = b->rvr + r0, v->rval = b->rval + r0;
+    v->ni = (size_t)b->ni[k], v->ivr = b->ivr + i0, v->ival = b->ival + i0;
+}
+
+/* Flights first .. n-1 of a batch, one dm_fly each on the same instances (reset by each
+ * flight, as between two dm_fly calls): flight k's start values from *plant and *ctrl (see
+ * DmBatchValues), its outputs at row k of out's arrays (out->nr Reals a row, and so on), its
+ * steps and stop flag at steps[k], stopped[k].  Returns n when every flight succeeded; else
+ * the index of the failed flight, dm_message() saying why (the caller goes on from the next). */
+DM_EXPORT long dm_fly_many(DmMaster *m, long first, long n, double t_end,
+                           const DmBatchValues *plant, const DmBatchValues *ctrl,
+                           const DmOutputs *out, long *steps, int *stopped)
+{
+    long pr = 0, pi = 0, cr = 0, ci = 0, k;
+    for (k = 0; k < first; k++)
+        pr += plant->nr[k], pi += plant->ni[k], cr += ctrl->nr[k], ci += ctrl->ni[k];
+    for (k = first; k < n; k++) {
+        DmValues pv, cv;
+        DmOutputs o = *out;
+        o.rval = out->rval + (size_t)k * out->nr;
+        o.ival = out->ival + (size_t)k * out->ni;
+        o.bval = out->bval + (size_t)k * out->nb;
+        batch_values(plant, k, pr, pi, &pv);
+        batch_values(ctrl, k, cr, ci, &cv);
+        pr += plant->nr[k], pi += plant->ni[k], cr += ctrl->nr[k], ci += ctrl->ni[k];
+        if (dm_fly(m, t_end, &pv, &cv, &o, &steps[k], &stopped[k]))
+            return k;
+    }
+    return n;
+}

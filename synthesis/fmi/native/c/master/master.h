@@ -28,6 +28,18 @@ typedef struct {
     fmi2Boolean *bval;
 } DmOutputs;
 
+/* Start values of a batch of flights (dm_fly_many): flight k sets nr[k] Reals and ni[k]
+ * Integers, its value references and values following those of flights 0 .. k-1 in the four
+ * concatenated arrays. */
+typedef struct {
+    const long *nr;
+    const fmi2ValueReference *rvr;
+    const fmi2Real *rval;
+    const long *ni;
+    const fmi2ValueReference *ivr;
+    const fmi2Integer *ival;
+} DmBatchValues;
+
 #define DM_EXPORT __attribute__((visibility("default")))
 
 DM_EXPORT DmMaster *dm_open(const char *plant_library, const char *plant_guid,
@@ -41,6 +53,9 @@ DM_EXPORT int dm_wire(DmMaster *m, size_t ny, const fmi2ValueReference *y_vr,
                       long check_every);
 DM_EXPORT int dm_fly(DmMaster *m, double t_end, const DmValues *plant, const DmValues *ctrl,
                      const DmOutputs *out, long *steps, int *stopped);
+DM_EXPORT long dm_fly_many(DmMaster *m, long first, long n, double t_end,
+                           const DmBatchValues *plant, const DmBatchValues *ctrl,
+                           const DmOutputs *out, long *steps, int *stopped);
 DM_EXPORT void dm_close(DmMaster *m);
 
 #endif
