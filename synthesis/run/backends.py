@@ -47,9 +47,6 @@ TASK_DISPATCH = {"pool": 0.0, "dask": 0.009}
 #: [choice] A local pool flies a batch of at most this many laws in the parent process (the
 #: same flyer on the same FMUs): a round trip to the workers costs more than the flights.
 SMALL_BATCH = 16
-#: [choice] The share of a small batch a worker flies while the parent flies the rest (0: the
-#: parent flies it all).
-SMALL_SHARE = float(os.environ.get("DESCENT_SMALL_SHARE", "0"))
 #: Cost of one law's flights [s] assumed until the first batch has measured it.
 FIRST_GUESS_FLIGHT = 0.02
 
@@ -168,7 +165,6 @@ class ProcessPool(Backend):
         self._known: set = set()
         self._here: LawFlyer | None = None          # flies small batches
         self.small_batch = SMALL_BATCH                # (0: every batch goes to the workers)
-        self.small_share = SMALL_SHARE
         self._pool = self._new_pool()
         # [choice] the workers start now (forked at the first task), loading their FMUs while
         # this process prepares the search, not when the first batch waits for them
@@ -188,8 +184,6 @@ class ProcessPool(Backend):
 
     def fly(self, laws) -> list:
         if len(laws) <= self.small_batch:
-            if self.small_share and len(laws) >= 2:
-                return self._fly_shared(laws)
             return self._fly_here(laws)
         chunks = self._chunks(laws, self.workers)
         try:
@@ -207,19 +201,6 @@ class ProcessPool(Backend):
             check_stop()
             if any(f.done() and isinstance(f.exception(), BrokenProcessPool) for f in futures):
                 break
-
-    def _fly_shared(self, laws) -> list:
-        """A small batch shared: its last ``small_share`` part flown by a worker while this
-        process flies the rest (the same flyer code on the same FMUs: the same outcomes)."""
-        k = max(1, int(len(laws) * self.small_share))
-        mine, theirs = laws[:len(laws) - k], laws[len(laws) - k:]
-        try:
-            fut = self._pool.submit(_fly_in_worker, theirs)
-            out = self._fly_here(mine) if mine else []
-            self._wait([fut])
-            return out + self._collect([fut], [theirs], fatal=BrokenProcessPool)
-        except BrokenProcessPool as exc:
-            return self._broken(exc, len(laws))
 
     def _broken(self, exc, n: int) -> list:
         """A worker died: start a fresh pool; the batch's laws are retried by the evaluator."""

@@ -180,8 +180,12 @@ def _append(path: Path, covered: int, data: bytes) -> int:
 
 def _line(name: str, key: bytes, o) -> str:
     """One JSON line: ``key`` (hex, under ``name``) and the Outcome ``o``."""
-    return json.dumps({name: key.hex(), "f": list(o.f), "cv": o.cv, "extras": o.extras},
-                      default=_plain) + "\n"
+    return _ENCODER.encode({name: key.hex(), "f": list(o.f), "cv": o.cv,
+                            "extras": o.extras}) + "\n"
+
+
+#: ``json.dumps(..., default=_plain)``'s encoder, made once (the same text: one line per law)
+_ENCODER = json.JSONEncoder(default=lambda value: _plain(value))
 
 
 def _outcome(name: str, r: dict) -> tuple:
