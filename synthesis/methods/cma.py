@@ -121,6 +121,17 @@ class CMA:
             self._pending = self.es.ask()
         return [self.x(z) for z in self._pending]
 
+    def ask_rows(self) -> np.ndarray:
+        """:meth:`ask` as one array, a candidate a row: the same values, the scale, the bounds
+        and ``x_map`` applied to the whole generation at once (``x_map`` must take rows, as
+        :meth:`GrayCodec.grid <synthesis.methods.encoding.GrayCodec.grid>` does: elementwise)."""
+        if self._pending is None:
+            self._pending = self.es.ask()
+        x = np.asarray(self._pending, float) * self.scale
+        if self.bounds is not None:
+            x = np.clip(x, *self.bounds)
+        return np.asarray(self.x_map(x), float) if self.x_map is not None else x
+
     def tell(self, values) -> None:
         """Values to minimise of the candidates of the last :meth:`ask`, same order: floats, or
         ``(violation, value)`` pairs (compared as tuples)."""

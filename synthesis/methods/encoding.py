@@ -77,6 +77,11 @@ class GrayCodec:
     def encode(self, values) -> np.ndarray:
         return _gray_bits(self._ints(values), self.bits_per).ravel()
 
+    def encode_rows(self, rows) -> np.ndarray:
+        """:meth:`encode` of each row of ``rows`` (one law's parameters a row), at once."""
+        ints = self._ints(rows)
+        return _gray_bits(ints.ravel(), self.bits_per).reshape(len(ints), -1)
+
     def grid(self, values) -> list:
         """``decode(encode(values))`` (what the code can hold), without the bits."""
         return self._values(self._ints(values))

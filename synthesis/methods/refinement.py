@@ -254,7 +254,8 @@ class Refinement:
         out = []
         for s in self.searches:
             if not s.done(self.budget):
-                out += [(s.member, self.codec.encode(x)) for x in s.cma.ask()]
+                # a generation's parameters Gray-coded at once (the same bits as law by law)
+                out += [(s.member, bits) for bits in self.codec.encode_rows(s.cma.ask_rows())]
         return out
 
     def tell(self, members) -> bool:

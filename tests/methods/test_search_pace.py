@@ -113,3 +113,23 @@ def test_target_better_agrees_with_its_order():
                 keys_differ = t.keys(rows[[a]], [ca]) != t.keys(rows[[b]], [cb])
                 if keys_differ and not np.isnan(rows[[a, b], t.objective]).any():
                     assert t.better(rows[a], rows[b], ca, cb) == (order == [0, 1])
+
+
+@pytest.mark.parametrize("codec", [GrayCodec(5), GrayCodec(7, 20, 28, -2.0 ** 19, 2.0 ** 19)])
+def test_a_generation_coded_at_once_is_its_laws_coded_one_by_one(codec):
+    # oracle: CMA.ask() and GrayCodec.encode() law by law (the refinement's route before);
+    # ask_rows() + encode_rows() must give the same grid values and the same bits, exactly
+    from descent_fmus.synthesis.methods.cma import CMA
+    span = codec.hi - codec.lo
+    for seed in range(3):
+        x0 = codec.lo + span * np.linspace(0.1, 0.9, codec.n)
+        search = CMA(x0, 0.3, seed, bounds=(codec.lo, codec.hi - codec.step),
+                     x_map=codec.grid, popsize=12)
+        for _ in range(3):
+            one = search.ask()
+            rows = search.ask_rows()
+            assert [_hex(x) for x in one] == [_hex(x) for x in rows]
+            bits = codec.encode_rows(rows)
+            assert bits.shape == (12, codec.n_bits) and bits.dtype == np.uint8
+            assert all(np.array_equal(codec.encode(x), b) for x, b in zip(one, bits))
+            search.tell([float(np.sum(np.asarray(x) ** 2)) for x in one])
