@@ -11,7 +11,9 @@ skipped: ``--no-reference``) ``--repeat`` times and prints, per run and as media
   workers), beside the ceiling the flights set: laws / their own time (the pace of a search
   whose method cost nothing);
 * the phase split (scaling, search, checkpoints, export, report), with the export's share of
-  the whole command.
+  the whole command;
+* the main process's CPU seconds over the whole command (``getrusage``, the workers not
+  counted): the search's own work, less inflated by other jobs on the cores than its wall time.
 
 Timings are measured, never asserted; the machine's load average is printed beside them.
 
@@ -39,12 +41,22 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from run_phases import source_tree  # noqa: E402  (the code of a git revision)
 
 PHASES = ("scaling", "search", "checkpoints", "export", "report")
+#: The command line run in a process that reports its own CPU seconds at the end (the main
+#: process's, without the workers': a figure that grows less with other jobs' load than the
+#: wall time does).
+_CPU_WRAPPER = ("import resource, sys\n"
+                "from descent_fmus.synthesis.cli.main import main\n"
+                "try:\n    rc = main(sys.argv[1:])\nexcept SystemExit as stop:\n"
+                "    rc = stop.code\n"
+                "r = resource.getrusage(resource.RUSAGE_SELF)\n"
+                "print('main-process-cpu', r.ru_utime + r.ru_stime, file=sys.stderr)\n"
+                "sys.exit(rc)\n")
 
 
 def run(out: Path, args, source: Path | None = None) -> dict:
     """One run's figures (see the module docstring); ``source``: the code of
     :func:`run_phases.source_tree` instead of this checkout's."""
-    cmd = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry",
+    cmd = [sys.executable, "-c", _CPU_WRAPPER, "synthesize", "reentry",
            "--workers", str(args.workers), "--out", str(out), "--no-reference", "--quiet",
            "--json"]
     if args.seed is not None:
@@ -62,7 +74,9 @@ def run(out: Path, args, source: Path | None = None) -> dict:
         raise SystemExit(f"synthesize failed ({res.returncode}):\n{res.stderr[-3000:]}")
     s = json.loads(res.stdout)
     t, fl = s["timings"], s["flight_seconds"]
-    return {"wall": wall, "load": load, "laws": s["simulated"],
+    cpu = [float(line.split()[1]) for line in res.stderr.splitlines()
+           if line.startswith("main-process-cpu ")]
+    return {"wall": wall, "load": load, "laws": s["simulated"], "main_cpu": cpu[-1],
             "laws_per_s": s["simulated"] / t["search"], "own": fl["own"], "waited": fl["waited"],
             "ratio": t["search"] / max(fl["own"], 1e-9),
             "ceiling": s["simulated"] / max(fl["own"], 1e-9),
@@ -88,7 +102,7 @@ def main(argv=None) -> dict:
             runs.append(run(Path(tmp) / f"run{i}", args))
             if source is not None:
                 before.append(run(Path(tmp) / f"before{i}", args, source))
-    keys = ("wall", "laws", "laws_per_s", "ceiling", "own", "waited", "ratio",
+    keys = ("wall", "laws", "laws_per_s", "ceiling", "own", "waited", "ratio", "main_cpu",
             "export_share") + PHASES
     med = {k: statistics.median(r[k] for r in runs) for k in keys}
     out = {"runs": runs, "median": med, "workers": args.workers}
@@ -110,7 +124,7 @@ def main(argv=None) -> dict:
               f"{r['laws_per_s']:.0f} laws/s (target >= 5000; the flights' ceiling "
               f"{r['ceiling']:.0f}); flights' own time "
               f"{r['own']:.1f} s, waited {r['waited']:.1f} s; search / own = {r['ratio']:.2f} "
-              f"(target <= 2); export {r['export']:.1f} s ({100 * r['export_share']:.0f} % of "
+              f"(target <= 2); the main process's CPU {r['main_cpu']:.1f} s; export {r['export']:.1f} s ({100 * r['export_share']:.0f} % of "
               f"{r['wall']:.1f} s); " + ", ".join(f"{k} {r[k]:.1f}" for k in PHASES
                                                     if k not in ("search", "export")))
     return out
