@@ -19,8 +19,9 @@ from descent_fmus.synthesis.run.signals import check_stop, critical
 
 __all__ = ["LawFlyer", "Flown", "BATCH_LAWS"]
 
-#: [choice] Laws a stoppable batch (flown in the run's own process) hands the C master at once:
-#: one call for a CMA-ES generation, and a requested stop is honoured within ~0.1 s.
+#: [choice] Laws handed to the C master at once: one call for a CMA-ES generation, and a signal
+#: waits at most for one call (~0.1 s): a requested stop in the run's own process, a worker's
+#: SIGTERM handler (Python runs it only between two C calls).
 BATCH_LAWS = 128
 
 #: What flying one law gives: its Outcome, or None and the error text.
@@ -73,7 +74,7 @@ class LawFlyer:
         while i < len(laws):
             if stoppable:
                 check_stop()
-            part = laws[i:i + BATCH_LAWS] if stoppable else laws[i:]
+            part = laws[i:i + BATCH_LAWS]
             got = self._fly_batch(part)
             if got is None:
                 got, part = [self.fly(laws[i])], laws[i:i + 1]
