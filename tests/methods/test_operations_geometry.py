@@ -346,3 +346,21 @@ def test_problem_files_and_the_command_line_choose_the_operations(hopper_dir, fm
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "--binary: unknown binary operation 'hypt'; valid: 1 add" in r.stderr, r.stderr
     assert not out.exists()
+
+
+def test_readable_formulas_print_the_signed_square():
+    # ssq enters readable laws through SymPy (z*Abs(z)): the linear law with x2's product arc
+    # through ssq, u = -2 x1 + ssq(-3 x2) = -2 x1 - 9 x2|x2| (the closed form, by hand);
+    # the readable form evaluates to the matrix law within 1e-12 (its oracle)
+    lin = NetworkOperator.linear([[-2.0, -3.0]], [0.0], bounds=[(-1.0, 1.0)], size=8)
+    psi = lin.psi.copy()
+    psi[6, 7] = SSQ                                      # the arc x2 * q2 -> the sum node
+    law = NetworkOperator(psi, nx=2, q=lin.q, outputs=lin.outputs, bounds=lin.bounds)
+    r = law.readable()
+    assert r.text == "u = clip(-2*x1 - 9*x2*Abs(x2), -1, 1)", r.text
+    assert r"x_{2} \left|{x_{2}}\right|" in r.latex, r.latex
+    assert "ssq((x2*-3))" in law.formula()
+    for x in np.random.default_rng(6).normal(0, 2, (200, 2)):
+        want = -2.0 * x[0] - 9.0 * x[1] * abs(x[1])
+        assert abs(law.raw(list(x))[0] - want) <= 1e-12 * max(1.0, abs(want))
+        assert abs(r.evaluate(list(x))[0] - want) <= 1e-12 * max(1.0, abs(want))
