@@ -7,8 +7,8 @@ Oracles: the Python evaluation of the one operation table
 compiled here) --
 bitwise (``struct.pack('<d')``), on random inputs and on extremes (+-0, +-1e8, tiny and
 subnormal numbers, both sides of atan2's branch cut, NaN and infinities); the closed forms
-``math.hypot``, ``numpy.arctan2``, ``math.copysign(z * z, z)`` and the wrapped angle for a small law (tolerances stated at
-each assertion); atan2's fold as docs/methods/network_operator.md defines it (first arc sets the
+``math.hypot``, ``numpy.arctan2``, ``math.copysign(z * z, z)`` and the wrapped angle for a
+small law (tolerances stated at each assertion); atan2's fold as docs/methods/network_operator.md defines it (first arc sets the
 node, later arcs fold ``a <- atan2(a, b)``); the operation table's names for the problem-file and
 command-line choices (one-line errors listing the valid names).
 """
