@@ -139,6 +139,10 @@ _UNARY_OPS = (
     # the angle z wrapped to (-pi, pi]: IEEE remainder is exact, so the same double in C
     Operation(29, "wrap", "PI if remainder(z, TWO_PI) == -PI else remainder(z, TWO_PI)",
               "wrap({})", latex=r"\operatorname{wrap}\left(#\right)"),
+    # the signed square z|z|: the odd counterpart of sq and the inverse of ssqrt (quadratic
+    # drag, orifice flow, the double integrator's switching curve x1 + x2|x2|/2); an overflow
+    # to inf is clamped as cube's is -- [choice] docs/methods/network_operator.md "ssq"
+    Operation(30, "ssq", "z * abs(z)", "ssq({})", sym="z*Abs(z)"),
 )
 #: Binary operations (unit elements: -inf/+inf of max/min are -BIG/+BIG).
 _BINARY_OPS = (

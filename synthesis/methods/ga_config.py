@@ -17,7 +17,8 @@ PAPER_UNARY = (1, 3, 4, 5, 8, 9, 10, 14, 15)
 PAPER_BINARY = (1, 2)
 #: The operations of a problem file that names none: the paper's set with the geometry
 #: operations (unary wrap, cos, sin; binary atan2, hypot) -- [choice] docs/methods/network_operator.md
-#: "Choosing the operations"; registered systems keep the paper's set.
+#: "Choosing the operations"; registered systems keep the paper's set.  Not the signed square
+#: (30 ssq): worse on the tuning half's medians -- [choice] docs/methods/network_operator.md "ssq".
 FILE_UNARY = PAPER_UNARY + (29, 11, 12)
 FILE_BINARY = PAPER_BINARY + (9, 10)
 #: The authors' wider operation set (``--wide-ops``).

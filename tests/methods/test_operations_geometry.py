@@ -1,4 +1,5 @@
-"""Operations of geometry and switching: binary ``atan2`` and ``hypot``, unary ``wrap``.
+"""Operations of geometry and switching: binary ``atan2`` and ``hypot``, unary ``wrap`` and
+the signed square ``ssq`` (z|z|).
 
 Oracles: the Python evaluation of the one operation table
 (``models/controllers/operation_table.py``) for the native matrix interpreter (the native
@@ -6,8 +7,8 @@ Oracles: the Python evaluation of the one operation table
 compiled here) --
 bitwise (``struct.pack('<d')``), on random inputs and on extremes (+-0, +-1e8, tiny and
 subnormal numbers, both sides of atan2's branch cut, NaN and infinities); the closed forms
-``math.hypot``, ``numpy.arctan2`` and the wrapped angle for a small law (tolerances stated at
-each assertion); atan2's fold as docs/methods/network_operator.md defines it (first arc sets the
+``math.hypot``, ``numpy.arctan2``, ``math.copysign(z * z, z)`` and the wrapped angle for a
+small law (tolerances stated at each assertion); atan2's fold as docs/methods/network_operator.md defines it (first arc sets the
 node, later arcs fold ``a <- atan2(a, b)``); the operation table's names for the problem-file and
 command-line choices (one-line errors listing the valid names).
 """
@@ -37,7 +38,8 @@ from descent_fmus.synthesis.methods.law import NetworkOperator
 from fmi_calls import start
 
 ATAN2, HYPOT = operation_numbers(["atan2", "hypot"], binary=True)
-WRAP, = operation_numbers(["wrap"])
+WRAP, SSQ = operation_numbers(["wrap", "ssq"])
+SSQRT, = operation_numbers(["ssqrt"])
 ID, NEG = operation_numbers(["id", "neg"])
 PI = math.pi
 #: operands: zeros of both signs, subnormal and tiny numbers, the clamp, angles at and beside
@@ -73,7 +75,7 @@ def test_the_table_grows_at_its_end():
     # operations of the reentry paper and its wider set keep their numbers
     assert [op.name for op in UNARY_OPS[1:29]][:5] == ["id", "sq", "neg", "ssqrt", "inv"]
     assert UNARY_OPS[28].name == "gauss" and BINARY_OPS[8].name == "smax"
-    assert (WRAP, ATAN2, HYPOT) == (29, 9, 10)
+    assert (WRAP, ATAN2, HYPOT, SSQ) == (29, 9, 10, 30)
     assert [op.number for op in UNARY_OPS[1:]] == list(range(1, len(UNARY)))
     assert [op.number for op in BINARY_OPS[1:]] == list(range(1, len(BINARY)))
 
@@ -105,24 +107,43 @@ def test_operations_equal_their_closed_forms():
     assert BINARY[ATAN2](-5e-324, -1.0) == -PI and BINARY[ATAN2](5e-324, -1.0) == PI
 
 
+def test_the_signed_square_is_odd_and_inverts_ssqrt():
+    # ssq(z) = z|z| = copysign(z^2, z), exactly (one rounding either way), with the sign of
+    # zero kept; the inverse of ssqrt to 2 ulp on 20 decades (ssqrt rounds once, the square
+    # doubles its relative error); odd: ssq(-z) = -ssq(z) bitwise
+    zs = SPECIAL + list(np.random.default_rng(3).normal(0, 1, 2000) * 10.0 ** np.random.
+                        default_rng(4).uniform(-10, 10, 2000))
+    for z in zs:
+        assert bits(UNARY[SSQ](z)) == bits(math.copysign(z * z, z)), z
+        assert bits(UNARY[SSQ](-z)) == bits(-UNARY[SSQ](z)), z
+        if 1e-150 < abs(z) < 1e150:
+            back = UNARY[SSQ](UNARY[SSQRT](z))
+            assert abs(back - z) <= 2 * math.ulp(z), (z, back)
+    assert bits(UNARY[SSQ](-0.0)) == bits(-0.0) and UNARY[SSQ](-3.0) == -9.0
+
+
 @needs_cc
 def test_c_operations_equal_python_bitwise(tmp_path):
     # the three operations rendered to C (the native build's flags) on every pair of the
     # special operands and 4000 random ones over 30 decades: the same doubles as Python; the
     # node value a of atan2 is NaN (no arc yet) or clamped
-    src = "#include <math.h>\n" + operations_c([WRAP], [ATAN2, HYPOT], helpers=())
+    src = "#include <math.h>\n" + operations_c([WRAP, SSQ], [ATAN2, HYPOT], helpers=())
     src += (f"double w(double z) {{ return rho{WRAP}(z); }}\n"
+            f"double s(double z) {{ return rho{SSQ}(z); }}\n"
             f"double t(double a, double b) {{ return chi{ATAN2}(a, b); }}\n"
             f"double h(double a, double b) {{ return chi{HYPOT}(a, b); }}\n")
     lib = _compile(tmp_path, {"ops.c": src}, ["ops.c"])
-    for f in ("w", "t", "h"):
+    for f in ("w", "s", "t", "h"):
         getattr(lib, f).restype = ctypes.c_double
-        getattr(lib, f).argtypes = [ctypes.c_double] * (1 if f == "w" else 2)
+        getattr(lib, f).argtypes = [ctypes.c_double] * (1 if f in "ws" else 2)
     rng = np.random.default_rng(5)
     vals = SPECIAL + [-v for v in SPECIAL] + [float(v) for v in np.exp(
         rng.uniform(-35, 35, 4000)) * rng.choice([-1, 1], 4000)]
     for z in vals:
         assert bits(lib.w(z)) == bits(UNARY[WRAP](z)), z
+    # ssq's operand is any arc's source (an input: NaN, infinities, overflow to inf)
+    for z in vals + [math.inf, -math.inf, 1e300, -1.7976931348623157e308, math.nan]:
+        assert bits(lib.s(z)) == bits(UNARY[SSQ](z)) or (z != z and lib.s(z) != lib.s(z)), z
     pairs = [(a, b) for a in SPECIAL + [math.nan] for b in SPECIAL] + list(zip(vals, vals[::-1]))
     n = 0
     for a, b in pairs:
@@ -185,14 +206,14 @@ def test_atan2_folds_its_arcs_in_evaluation_order():
 
 def random_geometry_law(rng, L: int = 14, nx: int = 3) -> NetworkOperator:
     """A random law rich in the new operations: half the nodes atan2 or hypot, a third of the
-    arcs wrap, some nodes without incoming arcs; two outputs, a parameter."""
+    arcs wrap or ssq, some nodes without incoming arcs; two outputs, a parameter."""
     psi = np.zeros((L, L), dtype=int)
     ns = nx + 1
     for j in range(ns, L):
         psi[j, j] = rng.choice([ATAN2, HYPOT, ATAN2, HYPOT, 1, 2, 3, 6])
         for i in range(j):
             if rng.random() < 0.3:
-                psi[i, j] = rng.choice([WRAP, WRAP, ID, NEG, 2, 5, 7, 12, 14, 20])
+                psi[i, j] = rng.choice([WRAP, SSQ, ID, NEG, 2, 5, 7, 12, 14, 20])
     return NetworkOperator(psi, nx=nx, q=[float(rng.normal(0, 2))], outputs=[L, L - 1],
                            bounds=[(-1e9, 1e9)] * 2)
 
@@ -221,7 +242,7 @@ def _laws_as_c(d, laws):
 
 @needs_cc
 def test_python_interpreter_and_exported_c_agree_bitwise(interpreter, tmp_path):
-    # the polar law and 8 random laws rich in atan2/hypot/wrap, 200 random inputs each over
+    # the polar law and 8 random laws rich in atan2/hypot/wrap/ssq, 200 random inputs each over
     # 1e-3..1e6 plus 400 drawn from the extremes (incl. NaN, +-inf, +-0, both sides of the cut)
     # and the cut itself (y = +-0, +-5e-324 with x < 0): Python = the native interpreter FMU
     # (the law loaded as start values) = law.c, bitwise
@@ -231,6 +252,7 @@ def test_python_interpreter_and_exported_c_agree_bitwise(interpreter, tmp_path):
     kinds = {(int(law.psi[j, j]), min(2, int(np.count_nonzero(law.psi[:j, j]))))
              for law in laws for j in range(law.nx + len(law.q), law.size)}
     assert {(ATAN2, 0), (ATAN2, 1), (ATAN2, 2), (HYPOT, 1), (HYPOT, 2)} <= kinds
+    assert sum(int(np.sum(law.psi == SSQ)) for law in laws) >= 10       # ssq arcs, too
     exported = _laws_as_c(tmp_path, laws)
     D = ctypes.c_double
     n = 0
@@ -286,7 +308,7 @@ def test_operation_names_and_numbers():
     msg = str(exc.value)
     assert msg.startswith("unknown binary operation 'atan3'; valid: 1 add, 2 mul") \
         and "9 atan2, 10 hypot" in msg and "\n" not in msg
-    for bad in ([0], [30], [True], [1.0], ["max"]):        # max is binary, not unary
+    for bad in ([0], [31], [True], [1.0], ["max"]):        # max is binary, not unary
         with pytest.raises(OperationNameError, match="unknown unary operation"):
             operation_numbers(bad)
 
@@ -324,3 +346,21 @@ def test_problem_files_and_the_command_line_choose_the_operations(hopper_dir, fm
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "--binary: unknown binary operation 'hypt'; valid: 1 add" in r.stderr, r.stderr
     assert not out.exists()
+
+
+def test_readable_formulas_print_the_signed_square():
+    # ssq enters readable laws through SymPy (z*Abs(z)): the linear law with x2's product arc
+    # through ssq, u = -2 x1 + ssq(-3 x2) = -2 x1 - 9 x2|x2| (the closed form, by hand);
+    # the readable form evaluates to the matrix law within 1e-12 (its oracle)
+    lin = NetworkOperator.linear([[-2.0, -3.0]], [0.0], bounds=[(-1.0, 1.0)], size=8)
+    psi = lin.psi.copy()
+    psi[6, 7] = SSQ                                      # the arc x2 * q2 -> the sum node
+    law = NetworkOperator(psi, nx=2, q=lin.q, outputs=lin.outputs, bounds=lin.bounds)
+    r = law.readable()
+    assert r.text == "u = clip(-2*x1 - 9*x2*Abs(x2), -1, 1)", r.text
+    assert r"x_{2} \left|{x_{2}}\right|" in r.latex, r.latex
+    assert "ssq((x2*-3))" in law.formula()
+    for x in np.random.default_rng(6).normal(0, 2, (200, 2)):
+        want = -2.0 * x[0] - 9.0 * x[1] * abs(x[1])
+        assert abs(law.raw(list(x))[0] - want) <= 1e-12 * max(1.0, abs(want))
+        assert abs(r.evaluate(list(x))[0] - want) <= 1e-12 * max(1.0, abs(want))
