@@ -390,3 +390,24 @@ def test_a_law_beyond_the_interpreter_is_compiled(tmp_path):
     finally:
         fmu.freeInstance()
     assert [bits(u[0]) for u in got] == [bits(law(x)[0]) for x in xs]
+
+
+def test_the_interpreter_fmus_cache_key_follows_the_operation_table(monkeypatch, tmp_path):
+    # a stale cache must not survive a new operation: the interpreter FMU kept in the cache
+    # folder is keyed by its generated no_operations.h too (the table rendered to C).  Oracle:
+    # the same call with the table's text changed names another file; unchanged, the same one.
+    from descent_fmus.synthesis.fmi.native.builders import controllers, law_fmu
+    monkeypatch.setattr(law_fmu, "_INTERPRETERS", {})
+    monkeypatch.setenv("DESCENT_FMUS_CACHE", str(tmp_path))
+    built = []              # the key alone is under test: the compile is replaced by a write
+    monkeypatch.setattr(controllers, "build_network_operator_controller",
+                        lambda dest, cc: built.append(Path(dest).write_bytes(b"fmu")))
+    (tmp_path / "law_interpreter").mkdir()
+    first = law_fmu.interpreter_fmu()
+    law_fmu._INTERPRETERS.clear()
+    assert law_fmu.interpreter_fmu() == first
+    law_fmu._INTERPRETERS.clear()
+    table = law_fmu.interpreter_operations_h()
+    monkeypatch.setattr(law_fmu, "interpreter_operations_h", lambda: table + "/* one more */")
+    assert law_fmu.interpreter_fmu() != first
+    assert len(built) == 2          # built once per key, found the second time

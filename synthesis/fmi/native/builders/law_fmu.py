@@ -35,7 +35,8 @@ from descent_fmus.synthesis.fmi.native.builders.archives import (copied, deflate
 from descent_fmus.synthesis.fmi.native.builders.build import (COMPILE_FLAGS, WRAPPER_FILES,
                                                               Variable, build_fmu, c_file,
                                                               find_compiler)
-from descent_fmus.synthesis.fmi.native.builders.ccode import c_identifier, law_c
+from descent_fmus.synthesis.fmi.native.builders.ccode import (c_identifier,
+                                                           interpreter_operations_h, law_c)
 
 __all__ = ["law_variables", "build_law_fmu", "law_sources", "DEFAULT_IDENTIFIER",
            "interpreter_fmu", "write_law_fmu", "fits_interpreter"]
@@ -96,7 +97,8 @@ _TEMPLATE_LOCK = threading.Lock()
 def interpreter_fmu(compiler: str | None = None) -> Path:
     """The native ``NetworkOperatorController`` FMU (:mod:`.controllers`), compiled on first use
     into the cache folder (:func:`synthesis.paths.cache_dir`) under a key of the compiler, the
-    flags, the C files and the controller's variables, then found there (the key is computed
+    flags, the C files, the generated operation table and the controller's variables, then
+    found there (the key is computed
     once per process and compiler).
 
     Raises
@@ -117,8 +119,10 @@ def interpreter_fmu(compiler: str | None = None) -> Path:
                                             "CC) to build the native network-operator "
                                             "interpreter")
             files = [c_file(n) for n in (*WRAPPER_FILES, *NO_FILES, "no_model.c")]
+            # the generated operation table is a source too: a new operation, a new key
             key = hashlib.sha256(repr((cc, COMPILE_FLAGS, [(p.name, p.read_bytes())
                                                            for p in files],
+                                       interpreter_operations_h(),
                                        _controller_variables())).encode()).hexdigest()
             _INTERPRETERS[memo] = (cc, folder / f"NetworkOperatorController-{key[:16]}.fmu")
         cc, path = _INTERPRETERS[memo]
