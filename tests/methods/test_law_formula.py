@@ -8,6 +8,7 @@ outside it is refused)."""
 from __future__ import annotations
 
 import ctypes
+import dataclasses
 import math
 import struct
 import subprocess
@@ -123,9 +124,17 @@ def _every_op_laws(n):
     # 21, 22 and 24 (29 + 10 operations) drew laws whose expanded readable form cancels
     # intermediates of 1e5..1e7 -- their ulps alone exceed 1e-12 of u (measured 1.3e-12 ..
     # 1.1e-8: conditioning, not a wrong formula; the law's own nodes carry that rounding).
-    # Seed 28's four laws: 5.7e-14 at most, every input counted
+    # Seed 28's four laws: 5.7e-14 at most, every input counted.  Seeds 29 and 32, which differ
+    # by up to 1.0 when only the outputs are checked for the clamp, agree to 6e-14 once inputs
+    # where a node reaches the clamp are left out (the test below does): not a wrong formula
     rng = np.random.default_rng(28)
     return [every_operation_law(rng) for _ in range(n)]
+
+
+def _every_node(law):
+    """``law`` with every node an output, unclipped: its ``raw`` gives every node's value."""
+    return dataclasses.replace(law, outputs=list(range(1, law.size + 1)),
+                               bounds=[(-BIG, BIG)] * law.size)
 
 
 @pytest.mark.parametrize("law", [law for _, law in LAWS] + _every_op_laws(4),
@@ -138,10 +147,11 @@ def test_simplified_formula_equals_the_matrix_law(law):
     rng = np.random.default_rng(3)
     worst = 0.0
     n = 0
+    nodes = _every_node(law)
     for x in rng.normal(0.0, 0.7, (500, law.nx)):
         want = law.raw(list(x))
-        if any(abs(v) >= 1e7 for v in want):
-            continue
+        if any(abs(v) >= 1e7 for v in want) or any(abs(v) >= BIG for v in nodes.raw(list(x))):
+            continue        # a clamped node: the law is not the formula there (1 + 1e16 - 1e16)
         got = r.evaluate(list(x))
         for a, b in zip(got, want):
             worst = max(worst, abs(a - b) / max(1.0, abs(b)))
