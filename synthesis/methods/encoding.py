@@ -126,19 +126,24 @@ class StructureCodec:
     kinds: 0 replace the unary operation on an existing arc i->j; 1 replace the binary
     operation at non-source node j; 2 add an arc i->j with unary operation ``op`` (target a
     non-source node that has a binary operation); 3 remove the arc i->j if node j keeps another
-    incoming arc and node i another outgoing arc.  A variation with ``j < n_sources`` (such as
-    (0, 0, 0, 0)) is the identity.
+    incoming arc and node i another outgoing arc; 4 (drawn with probability ``weighted``, 0 =
+    never) a **weighted arc** i->j through ``op``: :meth:`weighted_arc`.  A variation with
+    ``j < n_sources`` (such as (0, 0, 0, 0)) is the identity.  The last ``n_params`` source
+    nodes are the constants q.
     """
 
     size: int
     n_sources: int
     unary: tuple = tuple(range(1, 29))
     binary: tuple = (1, 2, 3, 4)
+    weighted: float = 0.0
+    n_params: int = 0
 
     IDENTITY = (0, 0, 0, 0)
 
     def random(self, rng: np.random.Generator) -> tuple:
-        kind = int(rng.integers(0, 4))
+        # weighted == 0 draws exactly as before the weighted arcs existed (pinned results)
+        kind = 4 if self.weighted and rng.random() < self.weighted else int(rng.integers(0, 4))
         j = int(rng.integers(self.n_sources, self.size))
         i = int(rng.integers(0, j))
         ops = self.binary if kind == 1 else self.unary
@@ -163,4 +168,34 @@ class StructureCodec:
                 if psi[i, j] and np.count_nonzero(psi[:j, j]) > 1 \
                         and np.count_nonzero(psi[i, i + 1:]) > 1:
                     psi[i, j] = 0
+            elif kind == 4:
+                self.weighted_arc(psi, i, j, op)
         return psi
+
+    def weighted_arc(self, psi: np.ndarray, i: int, j: int, op: int) -> None:
+        """Add (in place) the arc i->j through ``op`` with a weight of its own: the first free
+        node k (no arcs in or out, i < k < j) becomes the product of an unused constant q_p
+        and node i, and k->j carries ``op`` -- so the arc adds ``op(q_p z_i)`` to node j, and
+        at q_p = 0 the law is its parent's when ``op(0)`` is the unit of node j's binary
+        operation (0 into a sum, 1 into a product); an arc i->j may exist beside it.  Skipped
+        (like any inapplicable variation) when that is not so, or when no free node or unused
+        constant is left: docs/methods/network_operator.md "Weighted arcs"."""
+        from descent_fmus.models.controllers.operation_table import UNARY, UNIT
+        if not psi[j, j] or not neutral_into(UNARY[op], UNIT[psi[j, j]]):
+            return
+        first = self.n_sources - self.n_params
+        p = next((p for p in range(first, self.n_sources)
+                  if p != i and not psi[p, p + 1:].any()), None)
+        k = next((k for k in range(max(i + 1, self.n_sources), j)
+                  if not psi[:k, k].any() and not psi[k, k + 1:].any()), None)
+        if p is None or k is None:
+            return
+        psi[k, k], psi[p, k], psi[i, k], psi[k, j] = 2, 1, 1, op     # k = q_p * z_i (product)
+
+
+def neutral_into(rho, unit) -> bool:
+    """Whether ``rho(0)`` is ``unit`` (the unit element of the receiving node's operation)."""
+    try:
+        return unit is not None and float(rho(0.0)) == unit
+    except (ValueError, ZeroDivisionError, OverflowError):
+        return False

@@ -132,6 +132,23 @@ class FormSearch:
         self.stats["children_new_form"] = self.stats.get("children_new_form", 0) + sum(out)
         return out
 
+    def _new_weights(self, child, parent) -> None:
+        """With weighted arcs on (``weighted_arcs``): the constants that ``child``'s form reads
+        and ``parent``'s does not start at the grid value nearest 0 (a weighted arc's own
+        weight: the child starts as its parent).  Costs no flights."""
+        if not self.cfg.weighted_arcs or self.structure is None:
+            return
+        codec, nx = self.params, self.structure.n_sources - self.params.n
+        old, new = self.matrix(parent), self.matrix(child)
+        fresh = [c for c in range(codec.n)
+                 if new[nx + c, nx + c + 1:].any() and not old[nx + c, nx + c + 1:].any()]
+        if fresh:
+            q = codec.decode(child.bits)
+            for c in fresh:
+                q[c] = codec.grid([0.0])[0]
+            child.bits = codec.encode(q)
+            self.stats["new_weights"] = self.stats.get("new_weights", 0) + 1
+
     def _morph(self, child, parent) -> None:
         """A child of another form than ``parent`` takes function-preserving constants
         (``morph`` probe points; :func:`preserving_constants` on the constants its change

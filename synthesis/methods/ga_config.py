@@ -79,6 +79,11 @@ class GAConfig:
     morph: int = setting(0, "probe points on which a child of a new form takes constants that "
                             "match its parent's law (the constants its change touched, by "
                             "least squares; 0 = off)", 0, 256)
+    # [choice] off by default: docs/methods/network_operator.md "Weighted arcs"
+    weighted_arcs: float = setting(0.0, "probability that a random variation is a weighted "
+                                        "arc (an added arc whose input is scaled by an unused "
+                                        "constant, which starts at 0: the child starts as its "
+                                        "parent; 0 = off)", 0.0, 1.0)
 
     def __post_init__(self):
         check_settings(self, "ga.")

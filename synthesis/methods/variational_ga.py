@@ -24,7 +24,7 @@ network operator method in control problems", Vestnik RUDN, 2007.
 from __future__ import annotations
 
 import hashlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -99,6 +99,8 @@ class VariationalGA(FormSearch, Method):
         self.refine_cfg = refine
         self.refinement = Refinement(params, refine, target) if target is not None else None
         self._refine_due = False
+        if structure is not None and config.weighted_arcs:
+            structure = replace(structure, weighted=config.weighted_arcs, n_params=params.n)
         self.structure = structure
         self.psi0 = None if psi0 is None else np.array(psi0, dtype=int)
         self.q0 = list(q0)
@@ -278,6 +280,7 @@ class VariationalGA(FormSearch, Method):
                     self._mutate(child, bits=False)
                 else:
                     self._mutate(child)
+                self._new_weights(child, pa if len(children) % 2 == 0 else pb)
                 self._morph(child, pa if len(children) % 2 == 0 else pb)
                 children.append(child)
         return children

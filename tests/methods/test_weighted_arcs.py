@@ -1,0 +1,125 @@
+"""Weighted arcs (``ga.weighted_arcs``): an added arc i->j through rho whose input is scaled by
+an unused constant of its own, which starts at 0, so the child starts as its parent
+(docs/methods/network_operator.md, "Weighted arcs")."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from descent_fmus.synthesis.methods.encoding import GrayCodec, StructureCodec
+from descent_fmus.synthesis.methods.ga_config import GAConfig
+from descent_fmus.synthesis.methods.law import NetworkOperator
+from descent_fmus.synthesis.methods.structures import probe_inputs
+from descent_fmus.synthesis.methods.variational_ga import VariationalGA, _Member
+
+NX, NQ, SIZE = 2, 3, 9           # inputs 0-1, constants 2-4 (q3 unused), nodes 5-8
+
+
+def _basic() -> NetworkOperator:
+    """u = q1 x1 + q2 x2 (node 5 = q1 x1, node 6 = q2 x2, node 7 free, node 8 = their sum)."""
+    psi = np.zeros((SIZE, SIZE), int)
+    psi[5, 5] = psi[6, 6] = 2                        # products
+    psi[0, 5] = psi[2, 5] = psi[1, 6] = psi[3, 6] = 1
+    psi[8, 8], psi[5, 8], psi[6, 8] = 1, 1, 1        # the sum (output 9: 1-based)
+    return NetworkOperator(psi, NX, [-3.0, -2.5, 0.0], outputs=[9], bounds=[(-1.0, 1.0)])
+
+
+BASIC = _basic()
+CODEC = GrayCodec(NQ, 11, 31, -1024.0, 1024.0)     # mintime-di's code: 0 is on its grid
+ARC = (4, 6, 8, 30)              # x2's product node through ssq into the sum
+
+
+def _codec(weighted=0.5, n_params=NQ) -> StructureCodec:
+    return StructureCodec(SIZE, NX + NQ, (1, 3, 10, 30, 11), (1, 2), weighted, n_params)
+
+
+def _gap(a, b, pts) -> float:
+    return float(np.max(np.abs(np.subtract(a.raw_points(pts), b.raw_points(pts)))))
+
+
+def test_the_weighted_arc_is_the_switching_form_and_neutral_at_zero():
+    psi = _codec().apply(BASIC.psi, [ARC])
+    # oracle, by hand: node 7 = q3 * x2's product node, into the sum through ssq
+    assert psi[7, 7] == 2 and psi[4, 7] == 1 and psi[6, 7] == 1 and psi[7, 8] == 30
+    assert np.count_nonzero(psi != BASIC.psi) == 4
+    pts = probe_inputs(BASIC, 64, seed=2)
+    assert _gap(BASIC, BASIC.with_structure(psi, [-3.0, -2.5, 0.0]), pts) <= 1e-12
+    # with q3 = 0.7: u = q1 x1 + q2 x2 + ssq(0.7 q2 x2) (closed form, relative 1e-12)
+    x = np.asarray(pts, float)
+    z = 0.7 * -2.5 * x[:, 1]
+    want = -3.0 * x[:, 0] - 2.5 * x[:, 1] + z * np.abs(z)
+    got = np.ravel(BASIC.with_structure(psi, [-3.0, -2.5, 0.7]).raw_points(pts))
+    assert np.max(np.abs(got - want)) <= 1e-12 * np.max(np.abs(want))
+
+
+def test_skipped_when_not_neutral_or_nothing_is_free():
+    codec = _codec()
+    # cos(0) = 1 is not the unit 0 of a sum; sgn into a product node: sgn(0) = 0, not 1
+    assert np.array_equal(codec.apply(BASIC.psi, [(4, 6, 8, 11)]), BASIC.psi)
+    assert np.array_equal(codec.apply(BASIC.psi, [(4, 0, 5, 10)]), BASIC.psi)
+    # a second weighted arc finds neither a free node nor an unused constant
+    once = codec.apply(BASIC.psi, [ARC])
+    assert np.array_equal(codec.apply(BASIC.psi, [ARC, (4, 5, 8, 3)]), once)
+    # no unused constant (q3 read as a bias into the sum): skipped
+    full = BASIC.psi.copy()
+    full[4, 8] = 1
+    assert np.array_equal(codec.apply(full, [ARC]), full)
+
+
+def test_off_draws_exactly_the_old_variations():
+    a, b = np.random.default_rng(5), np.random.default_rng(5)
+    plain = StructureCodec(SIZE, NX + NQ, (1, 3, 10, 30, 11), (1, 2))
+    old = [plain.random(a) for _ in range(200)]
+    assert old == [_codec(0.0).random(b) for _ in range(200)]
+    rng = np.random.default_rng(6)
+    kinds = [_codec(0.5).random(rng)[0] for _ in range(400)]
+    assert 150 < kinds.count(4) < 250            # about half: binomial(400, 0.5), 5 sigma
+
+
+def _ga(weighted, morph=0):
+    return VariationalGA(CODEC, BASIC.q, np.random.default_rng(3),
+                         GAConfig(population=8, crossovers=4, lchr=2, morph=morph,
+                                  basis_rule="compromise", weighted_arcs=weighted),
+                         StructureCodec(SIZE, NX + NQ, (1, 3, 30), (1, 2)), BASIC.psi,
+                         BASIC.with_structure)
+
+
+@pytest.mark.parametrize("morph", [0, 16])
+def test_the_child_starts_as_its_parent(morph):
+    ga = _ga(0.5, morph)
+    ga.tell(np.arange(8.0)[:, None])
+    parent = ga.pop[0]
+    bits = CODEC.encode([-3.0, -2.5, 37.25])          # an inherited, non-neutral weight
+    child = _Member([ARC, StructureCodec.IDENTITY], bits)
+    ga._new_weights(child, parent)
+    ga._morph(child, parent)
+    assert CODEC.decode(child.bits)[2] == 0.0
+    mom, kid = ga.candidate(parent).law, ga.candidate(child).law
+    assert not np.array_equal(kid.psi, mom.psi)
+    # oracle: the parent's law, at 64 probe states
+    assert _gap(mom, kid, probe_inputs(BASIC, 64, seed=4)) <= 1e-12
+
+
+def test_off_leaves_the_inherited_weight():
+    ga = _ga(0.0)
+    ga.tell(np.arange(8.0)[:, None])
+    child = _Member([ARC, StructureCodec.IDENTITY], CODEC.encode([-3.0, -2.5, 37.25]))
+    ga._new_weights(child, ga.pop[0])
+    assert CODEC.decode(child.bits)[2] == pytest.approx(37.25, abs=1e-6)
+
+
+def test_checkpoint_round_trips_the_weighted_arc():
+    ga = _ga(0.5)
+    ga.tell(np.arange(8.0)[:, None])
+    ga.pop[3] = _Member([ARC, (1, 0, 8, 3)], CODEC.encode([-3.0, -2.5, 0.0]), np.array([3.0]))
+    st = json.loads(json.dumps(ga.state()))
+    back = _ga(0.5).load_state(st)
+    assert back.pop[3].variations == ga.pop[3].variations
+    assert np.array_equal(back.matrix(back.pop[3]), ga.matrix(ga.pop[3]))
+    assert back.matrix(back.pop[3])[7, 8] == 30
+    # the same future: the next children are drawn alike
+    a, b = ga._children(), back._children()
+    assert [m.variations for m in a] == [m.variations for m in b]
+    assert all(np.array_equal(x.bits, y.bits) for x, y in zip(a, b))
