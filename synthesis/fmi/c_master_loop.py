@@ -213,10 +213,33 @@ class CMasterLoop:
         fmu = self._fmus[role]
         return lambda name: (fmu.vars.get(name), fmu.starts.get(name))
 
+    def _said(self) -> str:
+        return (self._dll.dm_message(self._m) or b"").decode(errors="replace")
+
+    def _failure(self, what: str) -> FMUError:
+        """The error of the call that just failed, with the master's message if it has one."""
+        said = self._said()
+        return FMUError(f"{what} failed: {said}" if said else f"{what} failed")
+
     def _check(self, what: str) -> None:
-        said = (self._dll.dm_message(self._m) or b"").decode(errors="replace")
+        said = self._said()
         if said:
             raise FMUError(f"{what} failed: {said}")
+
+    def _stop_time(self, stop_time) -> float:
+        """The flight's end time (the wiring's by default), checked, on an open loop."""
+        t_end = self.wiring.stop_time if stop_time is None else float(stop_time)
+        if not (t_end > 0 and math.isfinite(t_end)):
+            raise ValueError(f"need a finite stop time > 0, got {t_end}")
+        if self._m is None:
+            raise FMUError(f"{self.wiring.name} (native-c): the loop is closed")
+        return t_end
+
+    def _result(self, final: dict, stopped, steps: int, t_end: float, plant_values):
+        return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
+                                stopped=bool(stopped), steps=steps,
+                                t_final=min(steps * self.wiring.step, t_end),
+                                start=dict(plant_values or {}))
 
     def _values(self, role: str, values):
         """The ``_Values`` of a component's start values for this flight (kept on the layout,
@@ -243,35 +266,23 @@ class CMasterLoop:
         if scheme != "gauss-seidel" or (step is not None and float(step) != w.step):
             raise ValueError("the C master steps on the wiring's grid, Gauss-Seidel only; use "
                              "ClosedLoop for another step or scheme")
-        t_end = w.stop_time if stop_time is None else float(stop_time)
-        if not (t_end > 0 and math.isfinite(t_end)):
-            raise ValueError(f"need a finite stop time > 0, got {t_end}")
-        if self._m is None:
-            raise FMUError(f"{w.name} (native-c): the loop is closed")
+        t_end = self._stop_time(stop_time)
         pv = self._values("plant", plant_values)
         cv = self._values("controller", controller_values)
         if self._dll.dm_fly(self._m, t_end, ctypes.byref(pv), ctypes.byref(cv),
                             ctypes.byref(self._outputs), ctypes.byref(self._steps),
                             ctypes.byref(self._stopped)):
-            self._check(f"{w.name} (native-c): the flight")
-            raise FMUError(f"{w.name} (native-c): the flight failed")
+            raise self._failure(f"{w.name} (native-c): the flight")
         final = dict(zip(self._out_names["Real"], self._out_buf["Real"]))
         for kind in ("Integer", "Boolean"):
             final.update(zip(self._out_names[kind], map(int, self._out_buf[kind])))
-        k = self._steps.value
-        return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
-                                stopped=bool(self._stopped.value), steps=k,
-                                t_final=min(k * w.step, t_end), start=dict(plant_values or {}))
+        return self._result(final, self._stopped.value, self._steps.value, t_end, plant_values)
 
     def run_many(self, flights, stop_time: float | None = None) -> list:
         """Flights ``[(plant values, controller values), ...]`` from t = 0 in one
         ``dm_fly_many`` call: per flight the :class:`ClosedLoopResult` :meth:`run` gives, or the
         exception it would raise (a failed flight does not stop the others)."""
-        t_end = self.wiring.stop_time if stop_time is None else float(stop_time)
-        if not (t_end > 0 and math.isfinite(t_end)):
-            raise ValueError(f"need a finite stop time > 0, got {t_end}")
-        if self._m is None:
-            raise FMUError(f"{self.wiring.name} (native-c): the loop is closed")
+        t_end = self._stop_time(stop_time)
         out: list = [None] * len(flights)
         packed = [self._pack(role, [f[k] for f in flights])
                   for k, role in enumerate(("plant", "controller"))]
@@ -337,9 +348,7 @@ class CMasterLoop:
             k = self._dll.dm_fly_many(self._m, k, n, t_end, a(pv), a(cv), a(outs),
                                       steps.ctypes.data, stopped.ctypes.data)
             if k < n:
-                said = (self._dll.dm_message(self._m) or b"").decode(errors="replace")
-                what = f"{w.name} (native-c): the flight"
-                failed[k] = FMUError(f"{what} failed: {said}" if said else f"{what} failed")
+                failed[k] = self._failure(f"{w.name} (native-c): the flight")
                 k += 1
         names = self._out_names
         ints = [(t, names[t], bufs[t].tolist()) for t in ("Integer", "Boolean") if names[t]]
@@ -352,11 +361,7 @@ class CMasterLoop:
             final = dict(zip(names["Real"], reals[i]))
             for _, nm, rows in ints:
                 final.update(zip(nm, rows[i]))
-            k = steps_l[i]
-            out.append(ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
-                                        stopped=bool(stopped_l[i]), steps=k,
-                                        t_final=min(k * w.step, t_end),
-                                        start=dict(pvals or {})))
+            out.append(self._result(final, stopped_l[i], steps_l[i], t_end, pvals))
         return out
 
     def close(self) -> None:

@@ -114,14 +114,16 @@ class _Layout:
         if len(rd):
             values = v[rd]
             if not np.isfinite(values).all():
-                k = rd[np.flatnonzero(~np.isfinite(values))[0]]
-                raise ValueError(f"value of {self.names[k]} must be finite, got {v[k]!r}")
+                raise self._not_finite(rd[np.flatnonzero(~np.isfinite(values))[0]], v)
             rvr_v[:len(rd)] = self.vr[rd]
             rval_v[:len(rd)] = values
         if len(idd):
             ivr_v[:len(idd)] = self.vr[idd]
             ival_v[:len(idd)] = v[idd]
         return len(rd), len(idd)
+
+    def _not_finite(self, k: int, v: np.ndarray) -> ValueError:
+        return ValueError(f"value of {self.names[k]} must be finite, got {v[k]!r}")
 
     def fill_many(self, V: np.ndarray) -> tuple:
         """:meth:`fill` of every row of ``V`` (one flight's values a row) at once, packed as a
@@ -135,8 +137,7 @@ class _Layout:
         errors = {}
         bad = real & ~np.isfinite(values)
         for r in np.unique(rows[bad]).tolist():
-            k = int(cols[bad & (rows == r)][0])
-            errors[r] = ValueError(f"value of {self.names[k]} must be finite, got {V[r, k]!r}")
+            errors[r] = self._not_finite(int(cols[bad & (rows == r)][0]), V[r])
         n, c_long = len(V), np.dtype(ctypes.c_long)
         arrays = (np.bincount(rows[real], minlength=n).astype(c_long),
                   np.ascontiguousarray(self.vr[cols[real]]), np.ascontiguousarray(values[real]),

@@ -127,10 +127,7 @@ class CMA:
         :meth:`GrayCodec.grid <synthesis.methods.encoding.GrayCodec.grid>` does: elementwise)."""
         if self._pending is None:
             self._pending = self.es.ask()
-        x = np.asarray(self._pending, float) * self.scale
-        if self.bounds is not None:
-            x = np.clip(x, *self.bounds)
-        return np.asarray(self.x_map(x), float) if self.x_map is not None else x
+        return np.asarray(self.x(self._pending), float)      # x() is elementwise: rows too
 
     def tell(self, values) -> None:
         """Values to minimise of the candidates of the last :meth:`ask`, same order: floats, or

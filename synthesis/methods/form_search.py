@@ -143,9 +143,9 @@ class FormSearch:
         fresh = [c for c in range(codec.n)
                  if new[nx + c, nx + c + 1:].any() and not old[nx + c, nx + c + 1:].any()]
         if fresh:
-            q = codec.decode(child.bits)
+            q, zero = codec.decode(child.bits), codec.grid([0.0])[0]
             for c in fresh:
-                q[c] = codec.grid([0.0])[0]
+                q[c] = zero
             child.bits = codec.encode(q)
             self.stats["new_weights"] = self.stats.get("new_weights", 0) + 1
 

@@ -52,7 +52,7 @@ class LawFlyer:
             with critical():        # instantiating a pythonfmu FMU runs its Python code
                 self.loop = problem.load(plant, controller)
         except Exception as exc:   # FMUs that do not load: every law fails with that error
-            self.error = f"{type(exc).__name__}: {exc}"
+            self.error = _text(exc)
 
     def fly(self, law) -> Flown:
         """``(Outcome, None)``, or ``(None, error text)`` if an FMU call failed."""
@@ -62,7 +62,7 @@ class LawFlyer:
             with critical():
                 return self.problem.fly(self.loop, law), None
         except Exception as exc:  # an FMU error costs this law only
-            return None, f"{type(exc).__name__}: {exc}"
+            return None, _text(exc)
 
     def fly_all(self, laws, stoppable: bool = False) -> list:
         """:meth:`fly` of each law -- where the loop flies batches (the C master), in one call
@@ -93,12 +93,12 @@ class LawFlyer:
                 return None
             for flights in flown:
                 if isinstance(flights, BaseException):
-                    out.append((None, f"{type(flights).__name__}: {flights}"))
+                    out.append((None, _text(flights)))
                     continue
                 try:
                     out.append((problem.evaluate(flights), None))
                 except Exception as exc:  # as fly(): this law only
-                    out.append((None, f"{type(exc).__name__}: {exc}"))
+                    out.append((None, _text(exc)))
         return out
 
     def fly_timed(self, laws) -> tuple:
@@ -127,3 +127,8 @@ class LawFlyer:
     def close_all(cls) -> None:
         for flyer in list(cls._alive):
             flyer.close()
+
+
+def _text(exc: BaseException) -> str:
+    """A failed law's error text, as every path of :class:`LawFlyer` records it."""
+    return f"{type(exc).__name__}: {exc}"
