@@ -230,7 +230,9 @@ def _draw_aside(problem, rows, summary, path: Path):
 
     def finish(ok: bool) -> None:
         if process is not None and not ok:
-            process.terminate()
+            # SIGKILL: a SIGTERM that lands before _draw_here resets its handler runs the
+            # run's stop handler in the child, which prints a traceback
+            process.kill()
             process.join()
             return
         if process is not None:
