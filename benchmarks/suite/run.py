@@ -95,11 +95,15 @@ def _child(job_json: str) -> None:
     from descent_fmus.synthesis.cli.main import exit_without_teardown
     code = 0
     try:
-        print(json.dumps(run_one(json.loads(job_json))), flush=True)
+        record = run_one(json.loads(job_json))
     except BaseException as exc:                      # noqa: BLE001 -- reported to the parent
-        print(json.dumps({"error": f"{type(exc).__name__}: {exc}"}), flush=True)
+        record, code = {"error": f"{type(exc).__name__}: {exc}"}, 1
+    try:
+        print(json.dumps(record), flush=True)
+    except OSError:                                   # the parent is gone (stopped suite)
+        print(f"run.py: the suite's parent process is gone; this run's record: {record}",
+              file=sys.stderr)
         code = 1
-    sys.stdout.flush()
     sys.stderr.flush()
     exit_without_teardown(code)
 

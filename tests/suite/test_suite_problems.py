@@ -20,6 +20,7 @@
 """
 from __future__ import annotations
 
+import json
 import math
 import subprocess
 import sys
@@ -327,3 +328,24 @@ def test_run_py_set_names_recipe_settings_and_rejects_others_with_exit_2(tmp_pat
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert r.stderr.strip().splitlines() == ["error: no_such_setting: unknown setting"]
+
+
+def test_a_run_whose_parent_is_gone_says_so_in_one_line_without_a_traceback(tmp_path):
+    # A stopped suite (its parent killed) left each child's record unprintable: the child
+    # printed a BrokenPipeError traceback into its log. Oracle: the pipe's read end closed
+    # before the child writes, so the print must fail with EPIPE.
+    import os
+    job = {"problem": "no-such-problem", "method": "network-operator", "seed": 1,
+           "flights": 10, "dir": str(tmp_path / "run"), "fmus": str(tmp_path)}
+    read, write = os.pipe()
+    os.close(read)
+    try:
+        r = subprocess.run([sys.executable, str(SUITE / "run.py"), "--job", json.dumps(job)],
+                           stdout=write, stderr=subprocess.PIPE, text=True, timeout=120)
+    finally:
+        os.close(write)
+    assert r.returncode == 1
+    assert "Traceback" not in r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("run.py: the suite's parent process is gone")
+    assert "no-such-problem" in lines[0]
