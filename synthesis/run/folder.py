@@ -27,7 +27,8 @@ import numpy as np
 from dataclasses import asdict
 from pathlib import Path
 
-__all__ = ["RunDirError", "RunFolder", "write_json", "run_spec", "RUN_FILE", "CHECKPOINT",
+__all__ = ["RunDirError", "RunFolder", "write_json", "run_spec", "recipe_defaults", "RUN_FILE",
+           "CHECKPOINT",
            "FLOWN", "BEHAVIOUR", "JOURNAL"]
 
 RUN_FILE, CHECKPOINT, FLOWN = "run.json", "checkpoint.json", "flown.bin"
@@ -62,6 +63,25 @@ def run_spec(problem, method: str) -> dict:
             **({"gp": asdict(problem.gp)} if method == "gp" else {})}
 
 
+def recipe_defaults(problem) -> dict:
+    """The defaults of the recipe's sections (``ga``, ``refine``, ``gp``) of ``problem``'s
+    setting classes: what a setting added after a run was written means for that run."""
+    return {k: asdict(type(getattr(problem, k))()) for k in ("ga", "refine", "gp")
+            if hasattr(problem, k)}
+
+
+def _differs(old, new, defaults: dict | None) -> bool:
+    """``old`` (a run.json's field) differs from ``new``; a setting missing from an old
+    section counts as its default.
+
+    [choice] A run written before a setting existed resumes when the setting is at its default:
+    a new setting's default keeps the behaviour it had before (the package's rule for new
+    recipe settings), so the run is the same run; any other value is a different run."""
+    if isinstance(old, dict) and isinstance(new, dict) and defaults:
+        old = {**{k: v for k, v in defaults.items() if k in new and k not in old}, **old}
+    return old != new
+
+
 # the fields a resumed run may change: the budget's (a longer run of the same search)
 _SAME = ("problem", "source", "method", "seed", "ga", "refine", "operations", "q_bits",
          "input_scaling", "gp")
@@ -75,9 +95,10 @@ class RunFolder:
         self.run_file, self.checkpoint = self.path / RUN_FILE, self.path / CHECKPOINT
         self._behaviour_bytes = 0
 
-    def open(self, spec: dict, resume: bool) -> dict | None:
+    def open(self, spec: dict, resume: bool, defaults: dict | None = None) -> dict | None:
         """Check the folder against ``spec`` and prepare it; the checkpoint to resume from
-        (None for a fresh run).
+        (None for a fresh run). ``defaults`` (:func:`recipe_defaults`) stand for the settings
+        a resumed run's ``run.json`` does not name (written before they existed).
 
         Raises
         ------
@@ -90,7 +111,7 @@ class RunFolder:
                 raise RunDirError(f"{self.path} holds no run to resume (no {RUN_FILE}/"
                                   f"{CHECKPOINT})")
             old = json.loads(self.run_file.read_text())
-            if any(old.get(k) != spec.get(k) for k in _SAME):
+            if any(_differs(old.get(k), spec.get(k), (defaults or {}).get(k)) for k in _SAME):
                 raise RunDirError(f"{self.path} holds a different run ({old.get('problem')}, "
                                   f"method {old.get('method')}, seed {old.get('seed')}); resume "
                                   f"it with the same options or choose another --out")

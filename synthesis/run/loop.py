@@ -30,7 +30,8 @@ from descent_fmus.synthesis.methods.registry import (NETWORK_OPERATOR, cma_targe
                                                      make_method, method_names)
 from descent_fmus.synthesis.problems.contract import SynthesisProblem
 from descent_fmus.synthesis.run.evaluation import Evaluator
-from descent_fmus.synthesis.run.folder import RunDirError, RunFolder, run_spec, write_json
+from descent_fmus.synthesis.run.folder import (RunDirError, RunFolder, recipe_defaults, run_spec,
+                                               write_json)
 from descent_fmus.synthesis.run.guard import guarded
 from descent_fmus.synthesis.run.progress import Console
 from descent_fmus.synthesis.run.report import write_results
@@ -276,7 +277,7 @@ def run_synthesis(problem: SynthesisProblem, out: Path, fmu_dir: Path,
     check_memory(problem, max(workers, 1))          # before anything is written or allocated
     out = Path(out)
     folder = RunFolder(out)
-    st = folder.open(run_spec(problem, method), resume) or {}
+    st = folder.open(run_spec(problem, method), resume, recipe_defaults(problem)) or {}
     console = Console(problem.name, progress)
     try:
         return _run(problem, out, fmu_dir, method, workers, scheduler, export, stop_after,
