@@ -198,3 +198,21 @@ def test_a_weighted_arc_on_the_roomy_gains_law_applies_and_starts_neutral():
     got = np.ravel(roomy.with_structure(psi, [-1.0, -1.5, 0.0, 0.7, 0.0]).raw_points(pts))
     assert np.max(np.abs(got - want)) <= 1e-12 * np.max(np.abs(want))
     assert "ssq" in roomy.with_structure(psi, [-1.0, -1.5, 0.0, 0.7, 0.0]).formula()
+
+
+def test_the_roomy_law_exports_like_any_law():
+    from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX
+    from descent_fmus.synthesis.fmi.native.builders.ccode import law_c
+    # parking's layout: 3 inputs, 2 outputs, 32 nodes -- the controller FMU's capacity
+    roomy = with_room(_NOP.linear(G3, [0.1, -0.2], bounds=[(-1.0, 1.0)] * 2, size=32))
+    assert roomy.size <= L_MAX and len(roomy.q) == 11 <= NQ_MAX
+    sv = roomy.start_values()
+    assert sv["nq"] == 11 and [sv[f"q[{k + 1}]"] for k in range(11)] == roomy.q
+    nx, nq = 3, 11
+    codec = StructureCodec(roomy.size, nx + nq, (1, 30), (1, 2), 0.5, nq)
+    psi = codec.apply(roomy.psi, [(4, 15, 19, 30)])      # y's product of output 1 into its sum
+    law = roomy.with_structure(psi, roomy.q)
+    _, c = law_c(law)
+    # the weighted arc's node (18, 1-based: k = q9 * y's product) is computed, the other
+    # free node of output 1 (19) is not
+    assert "z18 " in c and "z19 " not in c
