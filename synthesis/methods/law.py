@@ -150,14 +150,18 @@ class NetworkOperator:
     # -- constructors ---------------------------------------------------------------------
     @classmethod
     def linear(cls, gains, bias=None, bounds=None, size: int | None = None,
-               input_names=None, input_scale=None, input_offset=None) -> "NetworkOperator":
+               input_names=None, input_scale=None, input_offset=None,
+               spare_constants: int = 0, free_nodes: int = 0) -> "NetworkOperator":
         """The linear feedback ``u_k = clip(sum_i gains[k][i] x_i + bias[k])`` as a matrix.
 
-        Nodes: the inputs, then the parameters (the gains row by row, then the biases), then
-        for each output the products ``q x_i`` (binary *), their sum with the bias (binary +)
-        and a chain of identity nodes (+) to the output node: spare nodes on which the GA's
-        variations build structure.  ``size`` (default: 4 spare nodes per output) is the total
-        node count; the spare nodes are shared out evenly.
+        Nodes: the inputs, then the parameters (the gains row by row, then the biases, then
+        ``spare_constants`` unused constants at 0), then for each output the products
+        ``q x_i`` (binary *), ``free_nodes`` free nodes (no arcs in or out), their sum with
+        the bias (binary +) and a chain of identity nodes (+) to the output node: spare nodes
+        on which the GA's variations build structure (the unused constants and free nodes
+        are room for weighted arcs: :func:`synthesis.methods.structures.with_room`).
+        ``size`` (default: 4 spare nodes per output) is the total node count; the spare
+        nodes are shared out evenly.
         """
         gains = [[float(g) for g in row] for row in gains]
         nu = len(gains)
@@ -168,9 +172,9 @@ class NetworkOperator:
         bias = [0.0] * nu if bias is None else [float(b) for b in bias]
         if len(bias) != nu:
             raise MatrixError(f"{nu} outputs but {len(bias)} biases")
-        q = [g for row in gains for g in row] + bias
+        q = [g for row in gains for g in row] + bias + [0.0] * int(spare_constants)
         ns = nx + len(q)
-        core = ns + nu * (nx + 1)
+        core = ns + nu * (nx + 1 + int(free_nodes))
         size = core + 4 * nu if size is None else int(size)
         spare = (size - core) // nu
         if spare < 0:
@@ -186,6 +190,7 @@ class NetworkOperator:
                 psi[nx + k * nx + i, node] = 1
                 prods.append(node)
                 node += 1
+            node += int(free_nodes)                          # free: room for weighted arcs
             psi[node, node] = 1                              # sum of the products + bias
             for j in prods:
                 psi[j, node] = 1

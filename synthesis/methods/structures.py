@@ -11,7 +11,7 @@ import numpy as np
 
 from descent_fmus.synthesis.methods.law import NetworkOperator
 
-__all__ = ["monomials", "polynomial_law", "tanh_network_law"]
+__all__ = ["monomials", "polynomial_law", "tanh_network_law", "with_room", "ROOM_FREE_NODES"]
 
 
 def monomials(nx: int, degree: int) -> list:
@@ -136,6 +136,45 @@ def tanh_network_law(template: NetworkOperator, hidden: int = 3, weights=None,
         psi[node, total] = 1
         node += 1
     return _finish(psi, nx, q, total, size, template)
+
+
+# -- room for weighted arcs in a linear basic law ---------------------------------------------
+#: [choice] free nodes per output a linear basic law gets for weighted arcs (between its
+#: products and its sum): one weighted arc per node, and the switching forms measured need
+#: one or two (docs/methods/network_operator.md, "Weighted arcs")
+ROOM_FREE_NODES = 2
+
+
+def with_room(law: NetworkOperator, free_nodes: int = ROOM_FREE_NODES) -> NetworkOperator:
+    """A linear law in the layout of :meth:`NetworkOperator.linear` (``[basic_law] gains``)
+    rewritten with room for weighted arcs (``ga.weighted_arcs``): as many unused constants
+    (at 0) as inputs and ``free_nodes`` free nodes per output between its products and its
+    sum, taken from its chain of identity nodes, so the node count stays ``law.size``.  The
+    same function (the spare parts are read by nothing).  Any other law -- and a linear one
+    whose nodes or the controller's parameters leave no room -- is returned as it is: a law
+    is recognised as linear when :meth:`NetworkOperator.linear` rebuilds its matrix exactly
+    from its parameters."""
+    from descent_fmus.models.controllers.network_operator import NQ_MAX
+    nx, nu = law.nx, len(law.outputs)
+    m = nu * nx + nu
+    if nx < 1 or len(law.q) != m:
+        return law
+    gains = [law.q[k * nx:(k + 1) * nx] for k in range(nu)]
+    common = dict(bounds=law.bounds, input_names=law.input_names,
+                  input_scale=law.input_scale, input_offset=law.input_offset)
+    try:
+        plain = NetworkOperator.linear(gains, law.q[nu * nx:], size=law.size, **common)
+    except ValueError:                     # MatrixError: too few nodes for the layout
+        return law
+    if not np.array_equal(plain.psi, law.psi) or plain.outputs != law.outputs:
+        return law
+    spare = min(nx, NQ_MAX - m)
+    chain = law.size - (nx + m + nu * (nx + 1))
+    free = min(int(free_nodes), (chain - spare) // nu)
+    if spare < 1 or free < 1:
+        return law
+    return NetworkOperator.linear(gains, law.q[nu * nx:], size=law.size, spare_constants=spare,
+                                  free_nodes=free, **common)
 
 
 # -- the default baselines of any problem ---------------------------------------------------------

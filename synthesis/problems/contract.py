@@ -289,9 +289,15 @@ class SynthesisProblem:
                              f"but {len(self.penalty)} penalty values")
 
     def basic(self) -> NetworkOperator:
-        """The first basic solution (``basic_law``, called if it is a function)."""
+        """The first basic solution (``basic_law``, called if it is a function); with weighted
+        arcs on (``ga.weighted_arcs``) a linear one gets room for them
+        (:func:`synthesis.methods.structures.with_room`: the same function)."""
         law = self.basic_law
-        return law if isinstance(law, NetworkOperator) else law()
+        law = law if isinstance(law, NetworkOperator) else law()
+        if self.ga.weighted_arcs:
+            from descent_fmus.synthesis.methods.structures import with_room
+            law = with_room(law)
+        return law
 
     @property
     def labels(self) -> tuple:

@@ -123,3 +123,96 @@ def test_checkpoint_round_trips_the_weighted_arc():
     a, b = ga._children(), back._children()
     assert [m.variations for m in a] == [m.variations for m in b]
     assert all(np.array_equal(x.bits, y.bits) for x, y in zip(a, b))
+
+
+# -- room for weighted arcs in a `[basic_law] gains` law (search12) -----------------------------
+from descent_fmus.synthesis.methods.law import NetworkOperator as _NOP   # noqa: E402
+from descent_fmus.synthesis.methods.structures import with_room          # noqa: E402
+
+G2, G3 = [[-1.0, -1.5]], [[-0.5, 0.25, 0.0], [0.0, -1.0, -1.0]]
+
+
+def test_without_room_the_gains_layout_is_the_documented_one():
+    # oracle, by hand: inputs 0-1, constants 2-4 (q1 q2 b); node 5 = q1 x1, 6 = q2 x2,
+    # 7 = 5 + 6 + b, 8 = id(7) (the chain), output 9 (1-based)
+    want = np.zeros((9, 9), int)
+    want[5, 5] = want[6, 6] = 2
+    want[0, 5] = want[2, 5] = want[1, 6] = want[3, 6] = 1
+    want[7, 7] = want[5, 7] = want[6, 7] = want[4, 7] = 1
+    want[8, 8] = want[7, 8] = 1
+    for law in (_NOP.linear(G2, [0.5], size=9),
+                _NOP.linear(G2, [0.5], size=9, spare_constants=0, free_nodes=0)):
+        assert np.array_equal(law.psi, want) and law.outputs == [9]
+        assert law.q == [-1.0, -1.5, 0.5]
+
+
+@pytest.mark.parametrize("gains,bias,size", [(G2, [0.0], 24), (G3, [0.1, -0.2], 32)])
+def test_the_room_is_inert_and_costs_no_node(gains, bias, size):
+    bounds = [(-1.0, 1.0)] * len(gains)
+    plain = _NOP.linear(gains, bias, bounds=bounds, size=size)
+    roomy = with_room(plain)
+    nx, nu = len(gains[0]), len(gains)
+    assert roomy.size == size and len(roomy.q) == len(plain.q) + nx
+    assert roomy.q[len(plain.q):] == [0.0] * nx
+    # the spare constants are read by nothing; 2 free nodes per output, no arcs in or out
+    ns = nx + len(roomy.q)
+    for c in range(len(plain.q), len(roomy.q)):
+        assert not roomy.psi[nx + c, ns:].any()
+    free = [k for k in range(ns, size) if not roomy.psi[:, k].any() and not roomy.psi[k].any()]
+    assert len(free) == 2 * nu
+    # oracle: the closed form u = clip(G x + b) at 64 probe states (1e-12)
+    pts = np.asarray(probe_inputs(plain, 64, seed=7, spread=3.0))
+    want = np.clip(pts @ np.array(gains).T + np.array(bias), -1.0, 1.0)
+    for law in (plain, roomy):
+        got = np.array([law(x) for x in pts])
+        assert np.max(np.abs(got - want)) <= 1e-12
+    # the readable formula and the law file are those of the law without room
+    assert roomy.formula() == plain.formula()
+    back = _NOP.from_dict(json.loads(json.dumps(roomy.to_dict())))
+    assert np.array_equal(back.psi, roomy.psi) and back.q == roomy.q
+    # idempotent; other laws (here: a bias fed twice, not the layout) are left as they are
+    assert with_room(roomy) is roomy
+    other = plain.psi.copy()
+    other[nx + len(plain.q) - 1, size - 1] = 1
+    odd = plain.with_structure(other, plain.q)
+    assert with_room(odd) is odd
+
+
+def test_a_weighted_arc_on_the_roomy_gains_law_applies_and_starts_neutral():
+    roomy = with_room(_NOP.linear(G2, [0.0], bounds=[(-1.0, 1.0)], size=24))
+    nx, nq = 2, len(roomy.q)                     # constants 2..6 (q4, q5 spare), free 9, 10
+    codec = StructureCodec(roomy.size, nx + nq, (1, 3, 10, 30, 11), (1, 2), 0.5, nq)
+    arc = (4, 8, 11, 30)                         # x2's product node through ssq into the sum
+    psi = codec.apply(roomy.psi, [arc])
+    assert np.count_nonzero(psi != roomy.psi) == 4 and psi[9, 11] == 30 and psi[5, 9] == 1
+    pts = probe_inputs(roomy, 64, seed=2)
+    assert _gap(roomy, roomy.with_structure(psi, roomy.q), pts) <= 1e-12
+    # a second one takes the other free node and spare constant, a third finds none
+    two = codec.apply(roomy.psi, [arc, (4, 7, 11, 4)])
+    assert np.count_nonzero(two != psi) == 4 and two[6, 10] == 1
+    assert np.array_equal(codec.apply(roomy.psi, [arc, (4, 7, 11, 4), (4, 8, 11, 10)]), two)
+    # with q4 = 0.7: u = -x1 - 1.5 x2 + ssq(0.7 (-1.5 x2)) (closed form, relative 1e-12)
+    x = np.asarray(pts, float)
+    z = 0.7 * -1.5 * x[:, 1]
+    want = -x[:, 0] - 1.5 * x[:, 1] + z * np.abs(z)
+    got = np.ravel(roomy.with_structure(psi, [-1.0, -1.5, 0.0, 0.7, 0.0]).raw_points(pts))
+    assert np.max(np.abs(got - want)) <= 1e-12 * np.max(np.abs(want))
+    assert "ssq" in roomy.with_structure(psi, [-1.0, -1.5, 0.0, 0.7, 0.0]).formula()
+
+
+def test_the_roomy_law_exports_like_any_law():
+    from descent_fmus.models.controllers.network_operator import L_MAX, NQ_MAX
+    from descent_fmus.synthesis.fmi.native.builders.ccode import law_c
+    # parking's layout: 3 inputs, 2 outputs, 32 nodes -- the controller FMU's capacity
+    roomy = with_room(_NOP.linear(G3, [0.1, -0.2], bounds=[(-1.0, 1.0)] * 2, size=32))
+    assert roomy.size <= L_MAX and len(roomy.q) == 11 <= NQ_MAX
+    sv = roomy.start_values()
+    assert sv["nq"] == 11 and [sv[f"q[{k + 1}]"] for k in range(11)] == roomy.q
+    nx, nq = 3, 11
+    codec = StructureCodec(roomy.size, nx + nq, (1, 30), (1, 2), 0.5, nq)
+    psi = codec.apply(roomy.psi, [(4, 15, 19, 30)])      # y's product of output 1 into its sum
+    law = roomy.with_structure(psi, roomy.q)
+    _, c = law_c(law)
+    # the weighted arc's node (18, 1-based: k = q9 * y's product) is computed, the other
+    # free node of output 1 (19) is not
+    assert "z18 " in c and "z19 " not in c
