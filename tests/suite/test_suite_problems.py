@@ -327,3 +327,18 @@ def test_run_py_set_names_recipe_settings_and_rejects_others_with_exit_2(tmp_pat
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert r.stderr.strip().splitlines() == ["error: no_such_setting: unknown setting"]
+
+
+def test_a_problem_file_runs_the_chosen_recipe_and_a_registered_system_its_own(built, fmu_dir):
+    # oracle: the choice on the tuning half (docs/benchmarks/suite.md, search13): a problem
+    # file that says nothing of [refine] pick tunes its new forms at spread ranks; S1's
+    # registered recipe keeps RefineConfig's "best", and S1's own file states it
+    from descent_fmus.synthesis.methods.refinement import RefineConfig
+    from descent_fmus.synthesis.problems.files import load_problem_file
+    from descent_fmus.synthesis.registry import get_problem
+    assert load("mintime-di", fmu_dir).refine.pick == "spread"
+    assert load("mintime-di", fmu_dir).tuned(refine_pick="best").refine.pick == "best"
+    assert RefineConfig().pick == get_problem("reentry").refine.pick == "best"
+    s1_file = load_problem_file(Path(__file__).resolve().parents[2] / "synthesis" / "systems"
+                                / "reentry" / "reentry.toml", fmu_dir=fmu_dir)
+    assert s1_file.refine == get_problem("reentry").refine
