@@ -16,7 +16,7 @@ the network operator is at least as good as the best baseline on the median, the
 best law (new, or the basic law's) and what that form bought (its median against
 ``nop-lchr0``'s); and a table of every method at fixed budgets (``--at``, default 5 000 and
 20 000 flights: the median over the seeds, the values per seed, the network operator over GP
-and, above a reference, the ratio of their excesses over it).  Finished runs are reused; a run that stopped early (interrupted) is resumed.
+as the goal reads it: above a reference, the ratio of their excesses over it).  Finished runs are reused; a run that stopped early (interrupted) is resumed.
 This script runs the syntheses (one process each) and is the command line; the tables are
 built by ``suite_table.py`` and printed and plotted by ``suite_report.py``.
 

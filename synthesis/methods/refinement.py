@@ -29,7 +29,12 @@ from descent_fmus.synthesis.methods.encoding import GrayCodec, bits_array, bits_
 from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.settings import check_settings, setting
 
-__all__ = ["RefineConfig", "Refinement"]
+__all__ = ["RefineConfig", "Refinement", "FILE_REFINE"]
+
+#: [choice] a problem file's refinement settings that differ from :class:`RefineConfig`'s
+#: (registered systems keep those): ``pick = "spread"``, chosen on the suite's tuning half by
+#: the issue's goals (docs/methods/network_operator.md "How a default is chosen", "pick")
+FILE_REFINE = {"pick": "spread"}
 
 #: [choice] Epochs of the structure search the flights left after the basic solution's ``basis``
 #: evaluations must hold for its CMA-ES to stop there (:meth:`RefineConfig.patience_for`): with

@@ -28,7 +28,7 @@ def read_recipe(rd: Reader, data, law) -> tuple:
     """``({budget, ga, refine, gp}, q_bits, operations)`` of the [budget], [ga], [refine] and
     [gp] tables."""
     from descent_fmus.synthesis.methods.gp_config import GPConfig
-    from descent_fmus.synthesis.methods.refinement import RefineConfig
+    from descent_fmus.synthesis.methods.refinement import FILE_REFINE, RefineConfig
     from descent_fmus.synthesis.methods.ga_config import GAConfig
     ga = rd.table(data, "ga", required=False)
     budget_table = dict(rd.table(data, "budget", required=False))
@@ -38,7 +38,7 @@ def read_recipe(rd: Reader, data, law) -> tuple:
     recipe = {"budget": read_settings(rd, budget_table, "budget", Budget()),
               "ga": read_settings(rd, ga, "ga", GAConfig(), GA_EXTRA),
               "refine": read_settings(rd, rd.table(data, "refine", required=False), "refine",
-                                      RefineConfig()),
+                                      RefineConfig(**FILE_REFINE)),
               "gp": read_settings(rd, rd.table(data, "gp", required=False), "gp", GPConfig())}
     return recipe, _q_bits(rd, ga, law), _operations(rd, ga)
 

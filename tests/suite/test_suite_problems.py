@@ -349,3 +349,18 @@ def test_a_run_whose_parent_is_gone_says_so_in_one_line_without_a_traceback(tmp_
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("run.py: the suite's parent process is gone")
     assert "no-such-problem" in lines[0]
+
+
+def test_a_problem_file_runs_the_chosen_recipe_and_a_registered_system_its_own(built, fmu_dir):
+    # oracle: the choice on the tuning half (docs/benchmarks/suite.md, search13): a problem
+    # file that says nothing of [refine] pick tunes its new forms at spread ranks; S1's
+    # registered recipe keeps RefineConfig's "best", and S1's own file states it
+    from descent_fmus.synthesis.methods.refinement import RefineConfig
+    from descent_fmus.synthesis.problems.files import load_problem_file
+    from descent_fmus.synthesis.registry import get_problem
+    assert load("mintime-di", fmu_dir).refine.pick == "spread"
+    assert load("mintime-di", fmu_dir).tuned(refine_pick="best").refine.pick == "best"
+    assert RefineConfig().pick == get_problem("reentry").refine.pick == "best"
+    s1_file = load_problem_file(Path(__file__).resolve().parents[2] / "synthesis" / "systems"
+                                / "reentry" / "reentry.toml", fmu_dir=fmu_dir)
+    assert s1_file.refine == get_problem("reentry").refine

@@ -4,7 +4,7 @@
 The oracle is the hand computation written beside each assertion: GP and CMA-ES (they do not
 read their budget) give their value at N flights off any run flown that far, the network
 operator (it reads it) only from a run of that budget; the median over the seeds that have a
-value; the ratio NO / GP of the medians and, above the reference, of the excesses over it.
+value; the ratio NO / GP of the medians, above the reference of the excesses over it.
 """
 from __future__ import annotations
 
@@ -77,11 +77,13 @@ def test_every_method_at_fixed_budgets(stored):
     # checkpoint (6 000 flights) gives its curve's 4.1 at 5 000
     assert rows["cma-linear"]["values"] == {5000: [None] * 3, 20000: [None] * 3}
     assert rows["cma-tanh"]["values"] == {5000: [None, None, 4.1], 20000: [None] * 3}
-    # NO / GP: 2.5 / 3.2 and 2.05 / 2.65; excesses over 2.0: 0.5 / 1.2 and 0.05 / 0.65
-    assert t["no_over_gp"][5000] == pytest.approx(0.78125, rel=1e-12)
-    assert t["no_over_gp"][20000] == pytest.approx(2.05 / 2.65, rel=1e-12)
-    assert t["excess_no_over_gp"][5000] == pytest.approx(0.5 / 1.2, rel=1e-12)
-    assert t["excess_no_over_gp"][20000] == pytest.approx(0.05 / 0.65, rel=1e-9)
+    # NO / GP as the goal reads it on a minimum-time problem: the excesses over 2.0,
+    # 0.5 / 1.2 and 0.05 / 0.65; the raw values beside it: 2.5 / 3.2 and 2.05 / 2.65
+    assert t["no_over_gp_of"] == "excess over the reference"
+    assert t["no_over_gp"][5000] == pytest.approx(0.5 / 1.2, rel=1e-12)
+    assert t["no_over_gp"][20000] == pytest.approx(0.05 / 0.65, rel=1e-9)
+    assert t["values_no_over_gp"][5000] == pytest.approx(0.78125, rel=1e-12)
+    assert t["values_no_over_gp"][20000] == pytest.approx(2.05 / 2.65, rel=1e-12)
     # the figure's curves are each seed's longest run: B's for the network operator's
     # seeds 1-2, the stopped run's checkpoint for seed 3
     assert rows["network-operator"]["ends"] == {1: 20004, 2: 20004, 3: 6000}
@@ -113,5 +115,33 @@ def test_figure_and_printed_table_of_the_stored_runs(stored, tmp_path, capsys):
     suite_report.print_budgets(at, [1, 2, 3])
     out = capsys.readouterr().out
     assert "gp                 5000: 3.2 (3, 5, 3.2); 20000: 2.65 (2.5, 2.8, -)" in out
-    assert "network operator / GP: 5000: 0.781; 20000: 0.774" in out
-    assert "excess over the reference, NO / GP: 5000: 0.417; 20000: 0.0769" in out
+    assert ("network operator / GP (excess over the reference): 5000: 0.417; "
+            "20000: 0.0769") in out
+    assert "reference): 5000: 0.781; 20000: 0.774" in out      # the raw ratio, labelled
+
+
+# made-up medians of three problems (closed-form ratios): a minimum-time problem whose
+# optimum is 2.0, one whose NO equals its reference, and a parking problem (reference 0)
+@pytest.mark.parametrize("ref, plot, no, gp, expected, of, raw", [
+    # (2.22 - 2) / (2.56 - 2) = 0.22 / 0.56 = 0.392857...: the goal "<= 0.5 x GP" met,
+    # where the raw ratio 2.22 / 2.56 = 0.867 could never come under 0.5
+    (2.0, "excess", 2.22, 2.56, 0.22 / 0.56, "excess over the reference", 2.22 / 2.56),
+    (2.0, "excess", 2.0, 2.5, 0.0, "excess over the reference", 0.8),
+    # a reference of 0 (parking): excess and value are the same number, read as the value
+    (0.0, "value", 0.03, 0.6, 0.05, "value", None),
+])
+def test_no_over_gp_reads_the_excess_above_a_reference(ref, plot, no, gp, expected, of, raw):
+    r = suite_table.no_over_gp({5000: no}, {5000: gp}, ref, plot, [5000])
+    assert r["no_over_gp"][5000] == pytest.approx(expected, rel=1e-12, abs=1e-15)
+    assert r["no_over_gp_of"] == of
+    if raw is None:
+        assert "values_no_over_gp" not in r
+    else:
+        assert r["values_no_over_gp"][5000] == pytest.approx(raw, rel=1e-12)
+
+
+def test_no_over_gp_without_a_gp_value_is_none():
+    # GP has no median at 20 000 (no run flown that far), or its excess is 0: no ratio
+    r = suite_table.no_over_gp({5000: 2.4, 20000: 2.2}, {5000: 2.0}, 2.0, "excess",
+                               [5000, 20000])
+    assert r["no_over_gp"] == {5000: None, 20000: None}
