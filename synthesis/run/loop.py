@@ -121,8 +121,7 @@ class RunLoop:
         ev = self.evaluate([c.law for c in cands])
         self.flights += ev.flown
         self.method.tell(ev.F, ev.cv)
-        for c, f, cv in zip(cands, ev.F, ev.cv):
-            self.archive.add(c, f, cv)
+        self.archive.add_many(cands, ev.F, ev.cv)
 
     def run(self) -> "RunLoop":
         """Step until a budget is spent (or ``stop_after`` generations: :attr:`interrupted`)."""
