@@ -131,7 +131,8 @@ def _behaviour_key(law, points, prober=None) -> bytes | None:
             values = [v for row in law.raw_points(points) for v in row]
         except Exception:
             return None
-    text = ",".join(f"{v:.12g}" for v in values)
+    # one format call for all values: the text of ",".join(f"{v:.12g}" for v in values)
+    text = ("%.12g," * len(values) % tuple(values))[:-1]
     return hashlib.blake2b(text.encode(), digest_size=16).digest()
 
 

@@ -132,6 +132,8 @@ class NativeProber:
         outputs = tuple(law.outputs)
         outs = self._outputs.get(outputs)
         if outs is None:
+            if len(self._outputs) >= 64:
+                self._outputs.clear()
             outs = self._outputs[outputs] = np.array(outputs, np.intc)
         nu = len(outputs)
         out = np.empty(len(x) * nu)

@@ -203,3 +203,31 @@ def test_archive_states_kept_per_law_are_the_states_made_anew():
     archive.add(Candidate(t, {"k": -1}), np.array([-1.0, -1.0]), 0.0)    # dominates all
     assert json.dumps(archive_state(archive, known)) == json.dumps(archive_state(archive))
     assert set(known) == {id(t)}
+
+
+def test_behaviour_keys_hash_each_value_to_12_digits():
+    # oracle: the key's definition, ",".join(f"{v:.12g}") of the values hashed, on values
+    # that round, specials and integers
+    import hashlib
+    from descent_fmus.synthesis.run.evaluation import _behaviour_key
+
+    class Prober:
+        def __init__(self, values):
+            self.v = values
+
+        def values(self, law, points):
+            return self.v
+
+    rng = np.random.default_rng(9)
+    cases = [[], [0.0, -0.0, math.inf, -math.inf, math.nan, 5e-324, 1.7976931348623157e308],
+             [123456789012.5, 0.1 + 0.2, 1e16, 1e-5, 3, -7], list(rng.normal(0, 1e4, 32)),
+             [float(v) for v in rng.normal(0, 1, 16) ** 31]]
+    for values in cases:
+        want = hashlib.blake2b(",".join(f"{v:.12g}" for v in values).encode(),
+                               digest_size=16).digest()
+        assert _behaviour_key(None, None, Prober(values)) == want
+    # 12 significant digits: equal keys for values equal to 12 digits, different otherwise
+    assert _behaviour_key(None, None, Prober([1.0000000000001])) == \
+        _behaviour_key(None, None, Prober([1.0]))
+    assert _behaviour_key(None, None, Prober([1.00000000001])) != \
+        _behaviour_key(None, None, Prober([1.0]))
