@@ -174,6 +174,26 @@ class ParetoArchive:
         self.items = keep
         return True
 
+    def add_many(self, items, F, cv) -> None:
+        """:meth:`add` of each item in turn (a batch of laws flown).  [choice] The offers an
+        archived item already weakly dominates are dropped at once: weak constraint-dominance
+        is transitive, so an item that leaves the archive during the batch leaves it for one
+        that weakly dominates those offers too; only the cap removes an item that nothing
+        dominates, so with room for the whole batch (and finite values: a NaN breaks the
+        transitivity) the result is :meth:`add`'s, one by one."""
+        F = np.asarray(F, float).reshape(len(items), -1)
+        cv = np.asarray(cv, float).reshape(len(items))
+        offer = range(len(items))
+        if self.items and len(self.items) + len(items) <= self.cap:
+            G, C = self._arrays()
+            if np.isfinite(G).all() and np.isfinite(C).all() and np.isfinite(F).all() \
+                    and np.isfinite(cv).all():
+                le = np.all(G[:, None, :] <= F[None, :, :], axis=2)
+                weak = np.where(C[:, None] == cv[None, :], le, C[:, None] < cv[None, :])
+                offer = np.flatnonzero(~weak.any(axis=0)).tolist()
+        for k in offer:
+            self.add(items[k], F[k], cv[k])
+
     @property
     def F(self) -> np.ndarray:
         return np.array([f for _, f, _ in self.items])

@@ -78,12 +78,32 @@ class Evaluation:
     flown: int
 
 
+#: [choice] The fingerprint's hash state after the matrix, per matrix (its bytes): hashing a
+#: 32 x 32 matrix (8 kB) was most of a fingerprint's cost, and a CMA-ES generation's laws share
+#: their matrix; the state is copied, so the digest is the one hashed from scratch.
+KEY_PREFIXES = 4096
+_PREFIXES: dict = {}
+
+
+def _matrix_hash(psi: np.ndarray):
+    """The fingerprint's hash object after the matrix's shape and entries (a copy)."""
+    key = (psi.shape, psi.dtype.str, psi.tobytes())
+    h = _PREFIXES.get(key)
+    if h is None:
+        h = hashlib.blake2b(digest_size=16)
+        h.update(struct.pack("<2q", *psi.shape))
+        h.update(psi.astype("<i8").tobytes())
+        if len(_PREFIXES) >= KEY_PREFIXES:
+            _PREFIXES.clear()
+        _PREFIXES[key] = h
+    return h.copy()
+
+
 def law_key(law) -> bytes:
     """A 16-byte fingerprint of what makes two laws the same candidate (their flights are
     identical): the matrix, the parameters, the outputs and bounds, the input scaling."""
-    h = hashlib.blake2b(digest_size=16)
-    h.update(struct.pack("<2q", *law.psi.shape))
-    h.update(law.psi.astype("<i8").tobytes())
+    psi = law.psi
+    h = _matrix_hash(psi) if isinstance(psi, np.ndarray) else _matrix_hash(np.asarray(psi))
     for part in (law.q, law.outputs, [v for b in law.bounds for v in b], law.input_scale,
                  law.input_offset):
         h.update(struct.pack(f"<q{len(part)}d", len(part), *map(float, part)))
@@ -111,7 +131,8 @@ def _behaviour_key(law, points, prober=None) -> bytes | None:
             values = [v for row in law.raw_points(points) for v in row]
         except Exception:
             return None
-    text = ",".join(f"{v:.12g}" for v in values)
+    # one format call for all values: the text of ",".join(f"{v:.12g}" for v in values)
+    text = ("%.12g," * len(values) % tuple(values))[:-1]
     return hashlib.blake2b(text.encode(), digest_size=16).digest()
 
 

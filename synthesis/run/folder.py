@@ -94,6 +94,11 @@ class RunFolder:
         self.path = Path(out)
         self.run_file, self.checkpoint = self.path / RUN_FILE, self.path / CHECKPOINT
         self._behaviour_bytes = 0
+        #: [choice] the outcomes' JSON text after the key (``id(outcome) -> (outcome, text)``)
+        #: of the laws journaled since the last checkpoint: the checkpoint appends most of the
+        #: same outcomes to ``behaviour.jsonl``, and encoding an outcome (its floats' shortest
+        #: text) was most of either line's cost; held until that checkpoint
+        self._texts: dict = {}
 
     def open(self, spec: dict, resume: bool, defaults: dict | None = None) -> dict | None:
         """Check the folder against ``spec`` and prepare it; the checkpoint to resume from
@@ -133,7 +138,8 @@ class RunFolder:
         it covers (``state["behaviour_bytes"]`` is set here)."""
         covered = state["simulated"] - len(new_flown)
         _append(self.path / FLOWN, covered * FINGERPRINT, b"".join(new_flown))
-        lines = "".join(_line("b", b, o) for b, o in new_behaviour)
+        lines = "".join(_line("b", b, o, self._texts) for b, o in new_behaviour)
+        self._texts = {}
         state["behaviour_bytes"] = _append(self.path / BEHAVIOUR,
                                            self._behaviour_bytes, lines.encode())
         write_json(self.checkpoint, state, indent=None)
@@ -145,7 +151,7 @@ class RunFolder:
         ``journal.jsonl`` (see the module docstring)."""
         if outcomes:
             with open(self.path / JOURNAL, "a") as fh:
-                fh.write("".join(_line("k", k, o) for k, o in outcomes))
+                fh.write("".join(_line("k", k, o, self._texts) for k, o in outcomes))
 
     def journaled(self) -> list:
         """The ``(fingerprint, Outcome)`` pairs of ``journal.jsonl`` (a line cut short by a
@@ -199,10 +205,18 @@ def _append(path: Path, covered: int, data: bytes) -> int:
     return covered + len(data)
 
 
-def _line(name: str, key: bytes, o) -> str:
-    """One JSON line: ``key`` (hex, under ``name``) and the Outcome ``o``."""
-    return _ENCODER.encode({name: key.hex(), "f": list(o.f), "cv": o.cv,
-                            "extras": o.extras}) + "\n"
+def _line(name: str, key: bytes, o, texts: dict | None = None) -> str:
+    """One JSON line: ``key`` (hex, under ``name``) and the Outcome ``o`` -- the text of
+    ``{name: key.hex(), "f": ..., "cv": ..., "extras": ...}`` as the encoder writes it (a hex
+    key needs no escapes); ``texts``: the outcomes' texts encoded before, by ``id``."""
+    got = texts.get(id(o)) if texts is not None else None
+    if got is not None and got[0] is o:
+        text = got[1]
+    else:
+        text = _ENCODER.encode({"f": list(o.f), "cv": o.cv, "extras": o.extras})
+        if texts is not None:
+            texts[id(o)] = (o, text)
+    return f'{{"{name}": "{key.hex()}", {text[1:]}\n'
 
 
 #: ``json.dumps(..., default=_plain)``'s encoder, made once (the same text: one line per law)

@@ -122,8 +122,7 @@ class RunLoop:
         ev = self.evaluate([c.law for c in cands])
         self.flights += ev.flown
         self.method.tell(ev.F, ev.cv)
-        for c, f, cv in zip(cands, ev.F, ev.cv):
-            self.archive.add(c, f, cv)
+        self.archive.add_many(cands, ev.F, ev.cv)
 
     def run(self) -> "RunLoop":
         """Step until a budget is spent (or ``stop_after`` generations: :attr:`interrupted`)."""
@@ -166,8 +165,21 @@ def _law_from_state(d: dict) -> NetworkOperator:
     return NetworkOperator.from_dict(dict(d, psi=psi))
 
 
-def archive_state(archive: ParetoArchive) -> list:
-    return [{"law": _law_state(c.law), "info": dict(c.info), "f": f.tolist(), "cv": cv}
+def archive_state(archive: ParetoArchive, known: dict | None = None) -> list:
+    """The archive as a checkpoint keeps it; ``known``: the laws' states of the last call
+    (``id(law) -> (law, state)``, the law held so that its id stays its own), updated to the
+    archive's laws.  [choice] A checkpoint re-encoded every archived law's matrix (a third of
+    its time): a law is never changed once made, so its state is made once."""
+    if known is None:
+        known = {}
+    states = {}
+    for c, _, _ in archive.items:
+        got = known.get(id(c.law))
+        states[id(c.law)] = got if got is not None and got[0] is c.law \
+            else (c.law, _law_state(c.law))
+    known.clear()
+    known.update(states)
+    return [{"law": states[id(c.law)][1], "info": dict(c.info), "f": f.tolist(), "cv": cv}
             for c, f, cv in archive.items]
 
 
@@ -185,6 +197,7 @@ class _Checkpoints:
         self.folder, self.evaluator, self.curve = folder, evaluator, curve
         self.t, self.mark = None, None
         self.written, self.seconds = 0, 0.0
+        self.states: dict = {}          # the archived laws' states (archive_state)
 
     def due(self, loop: RunLoop) -> bool:
         if self.t is None:
@@ -198,7 +211,8 @@ class _Checkpoints:
         t0 = time.perf_counter()
         self.folder.save({"generation": loop.method.generation,
                           "method": loop.method.state(),
-                          "archive": archive_state(loop.archive), "curve": self.curve,
+                          "archive": archive_state(loop.archive, self.states),
+                          "curve": self.curve,
                           "simulated": loop.flights}, *self.evaluator.take_new())
         self.t, self.mark = time.monotonic(), (loop.method.generation, loop.method.phase)
         self.written += 1

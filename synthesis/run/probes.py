@@ -94,6 +94,28 @@ class NativeProber:
             out.ctypes.data)
         self.checked = 0               # laws compared with the Python route so far
         self.trusted = True
+        # [choice] the probe points as a law reads them (scaled by its inputs' scaling) and
+        # its output nodes as C integers, kept by their content: the laws of a run share them
+        self._scaled: dict = {}
+        self._outputs: dict = {}
+
+    def _points(self, law, points):
+        """``points`` as the law's nodes read them (raw: ``s * (v - o)`` per input, the same
+        IEEE steps), or None when they do not fit the law's inputs."""
+        if law._scaled:
+            key = (id(points), tuple(law.input_scale), tuple(law.input_offset))
+            got = self._scaled.get(key)
+            if got is not None and got[0] is points:
+                return got[1]
+        x = np.asarray(points, np.float64)
+        if x.ndim != 2 or x.shape[1] != law.nx:
+            return None
+        if law._scaled:
+            x = np.asarray(law.input_scale) * (x - np.asarray(law.input_offset))
+            if len(self._scaled) >= 64:
+                self._scaled.clear()
+            self._scaled[key] = (points, x)
+        return x
 
     def values(self, law, points) -> list:
         """The law's unclipped outputs at ``points``, point by point (None: the Python route
@@ -101,18 +123,22 @@ class NativeProber:
         if not self.trusted or law.size > L_MAX or len(law.outputs) > NU_MAX \
                 or getattr(law, "_program", None) is None:
             return None
-        x = np.asarray(points, np.float64)
-        if x.ndim != 2 or x.shape[1] != law.nx:
+        x = self._points(law, points)
+        if x is None:
             return None
-        if law._scaled:                # as raw: s * (v - o), per input, the same IEEE steps
-            x = np.asarray(law.input_scale) * (x - np.asarray(law.input_offset))
         src = np.empty((len(x), law.nx + len(law.q)))
         src[:, :law.nx] = x
         src[:, law.nx:] = law.q
-        nu = len(law.outputs)
+        outputs = tuple(law.outputs)
+        outs = self._outputs.get(outputs)
+        if outs is None:
+            if len(self._outputs) >= 64:
+                self._outputs.clear()
+            outs = self._outputs[outputs] = np.array(outputs, np.intc)
+        nu = len(outputs)
         out = np.empty(len(x) * nu)
-        if self._eval(_twin_matrix(law.psi), law.nx, len(law.q),
-                      np.array(law.outputs, np.intc), nu, src, len(x), out) != 0:
+        if self._eval(_twin_matrix(law.psi), law.nx, len(law.q), outs, nu, src, len(x),
+                      out) != 0:
             return None
         got = out.tolist()
         if self.checked < CHECKED_LAWS:

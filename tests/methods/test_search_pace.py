@@ -133,3 +133,101 @@ def test_a_generation_coded_at_once_is_its_laws_coded_one_by_one(codec):
             assert bits.shape == (12, codec.n_bits) and bits.dtype == np.uint8
             assert all(np.array_equal(codec.encode(x), b) for x, b in zip(one, bits))
             search.tell([float(np.sum(np.asarray(x) ** 2)) for x in one])
+
+
+def _fingerprint(law) -> bytes:
+    """The fingerprint's definition hashed from scratch (the oracle of the cached route)."""
+    import hashlib
+    import struct
+    h = hashlib.blake2b(digest_size=16)
+    h.update(struct.pack("<2q", *law.psi.shape))
+    h.update(np.asarray(law.psi).astype("<i8").tobytes())
+    for part in (law.q, law.outputs, [v for b in law.bounds for v in b], law.input_scale,
+                 law.input_offset):
+        h.update(struct.pack(f"<q{len(part)}d", len(part), *map(float, part)))
+    return h.digest()
+
+
+def test_fingerprints_with_the_matrix_hash_cached_are_the_definitions(monkeypatch):
+    # oracle: blake2b over the same bytes from scratch (_fingerprint); laws sharing a matrix
+    # (the cached hash state) and a cache so small that it is emptied on the way
+    from descent_fmus.synthesis.run import evaluation
+    from tests.methods.test_interpreter_batch import _random_law
+    monkeypatch.setattr(evaluation, "KEY_PREFIXES", 3)
+    rng = np.random.default_rng(5)
+    t = _template()
+    laws = [_random_law(rng) for _ in range(6)] + [t]
+    laws += [t.with_structure(t.psi, [v] * len(t.q)) for v in (0.5, 0.5000000001, -2.0)]
+    laws += [NetworkOperator(np.asarray(law.psi, np.int32), law.nx, law.q, law.outputs,
+                             law.bounds, law.input_names, law.input_scale, law.input_offset)
+             for law in laws[:3]]
+    keys = [evaluation.law_key(law) for law in laws + laws[::-1]]
+    assert keys == [_fingerprint(law) for law in laws + laws[::-1]]
+    assert len(set(keys[:len(laws)])) == len(laws) - 3   # the int32 copies: the same laws
+    assert len(evaluation._PREFIXES) <= 3
+
+
+def test_journal_and_behaviour_lines_share_one_encoding():
+    # oracle: json's encoder on the whole line (the text before the shared encoding)
+    import json
+    from descent_fmus.synthesis.problems.contract import Outcome
+    from descent_fmus.synthesis.run import folder
+    enc = json.JSONEncoder(default=folder._plain)
+    outs = [Outcome((1.0, 2.5e-300), 0.0, {"landed": True, "t": 1 / 3}),
+            Outcome((float(np.float64(7.25)),), 3.0, {"error": 'a "quoted" \\ text\n',
+                                                      "a": np.arange(3)}),
+            Outcome((0.1, -0.0), 1e300, {})]
+    texts: dict = {}
+    for name in ("k", "b", "k"):
+        for i, o in enumerate(outs):
+            key = bytes([i]) * 16
+            want = enc.encode({name: key.hex(), "f": list(o.f), "cv": o.cv,
+                               "extras": o.extras}) + "\n"
+            assert folder._line(name, key, o, texts) == want == folder._line(name, key, o)
+    assert len(texts) == len(outs)
+
+
+def test_archive_states_kept_per_law_are_the_states_made_anew():
+    # oracle: archive_state without the kept states, after the archive changed
+    import json
+    from descent_fmus.synthesis.methods.base import Candidate
+    from descent_fmus.synthesis.methods.pareto import ParetoArchive
+    from descent_fmus.synthesis.run.loop import archive_state
+    t = _template()
+    archive, known = ParetoArchive(10), {}
+    for k in range(6):
+        law = t.with_structure(t.psi, [0.1 * k])
+        archive.add(Candidate(law, {"k": k}), np.array([float(k), 6.0 - k]), 0.0)
+        assert json.dumps(archive_state(archive, known)) == json.dumps(archive_state(archive))
+        assert set(known) == {id(c.law) for c, _, _ in archive.items}
+    archive.add(Candidate(t, {"k": -1}), np.array([-1.0, -1.0]), 0.0)    # dominates all
+    assert json.dumps(archive_state(archive, known)) == json.dumps(archive_state(archive))
+    assert set(known) == {id(t)}
+
+
+def test_behaviour_keys_hash_each_value_to_12_digits():
+    # oracle: the key's definition, ",".join(f"{v:.12g}") of the values hashed, on values
+    # that round, specials and integers
+    import hashlib
+    from descent_fmus.synthesis.run.evaluation import _behaviour_key
+
+    class Prober:
+        def __init__(self, values):
+            self.v = values
+
+        def values(self, law, points):
+            return self.v
+
+    rng = np.random.default_rng(9)
+    cases = [[], [0.0, -0.0, math.inf, -math.inf, math.nan, 5e-324, 1.7976931348623157e308],
+             [123456789012.5, 0.1 + 0.2, 1e16, 1e-5, 3, -7], list(rng.normal(0, 1e4, 32)),
+             [float(v) for v in rng.normal(0, 1, 16) ** 31]]
+    for values in cases:
+        want = hashlib.blake2b(",".join(f"{v:.12g}" for v in values).encode(),
+                               digest_size=16).digest()
+        assert _behaviour_key(None, None, Prober(values)) == want
+    # 12 significant digits: equal keys for values equal to 12 digits, different otherwise
+    assert _behaviour_key(None, None, Prober([1.0000000000001])) == \
+        _behaviour_key(None, None, Prober([1.0]))
+    assert _behaviour_key(None, None, Prober([1.00000000001])) != \
+        _behaviour_key(None, None, Prober([1.0]))
