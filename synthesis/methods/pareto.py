@@ -181,6 +181,8 @@ class ParetoArchive:
         that weakly dominates those offers too; only the cap removes an item that nothing
         dominates, so with room for the whole batch (and finite values: a NaN breaks the
         transitivity) the result is :meth:`add`'s, one by one."""
+        if not len(items):
+            return
         F = np.asarray(F, float).reshape(len(items), -1)
         cv = np.asarray(cv, float).reshape(len(items))
         offer = range(len(items))

@@ -98,3 +98,16 @@ def test_a_batch_past_the_cap_is_offered_one_by_one():
     many.add_many([0, 1, 2], F, np.zeros(3))
     assert [a[0] for a in many.items] == [a[0] for a in one.items] \
         == [("start", 0), ("start", 1), 2]
+
+
+def test_an_empty_batch_changes_nothing():
+    # a generation whose laws were all answered without a flight offers no law (oracle: add()
+    # never called); it raised on the reshape of an empty objective array
+    archive = ParetoArchive(cap=3)
+    archive.add("a", [1.0, 2.0])
+    archive.add_many([], np.empty((0,)), np.empty((0,)))
+    archive.add_many([], [], [])
+    assert [a[0] for a in archive.items] == ["a"]
+    empty = ParetoArchive(cap=3)
+    empty.add_many([], [], [])
+    assert empty.items == []
