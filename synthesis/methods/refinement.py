@@ -88,7 +88,8 @@ class RefineConfig:
                                 "forms by the target: a form's untuned value is a poor guide "
                                 "to its tuned one) or 'adaptive' ('best' until an epoch's "
                                 "best law is none of the new forms tuned after the epoch "
-                                "before, then 'spread')",
+                                "before, then 'spread'); default 'spread' in a problem "
+                                "file, 'best' for a registered system",
                         choices=("best", "spread", "adaptive"))
     screen: int = setting(0, "new forms screened after every epoch, before the halving: "
                              "each gets `screen_evals` flights of a search over the scale of "
