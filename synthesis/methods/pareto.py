@@ -162,8 +162,7 @@ class ParetoArchive:
         keep = []
         if self.items:
             G, C = self._arrays()
-            weak = np.where(C == cv, np.all(G <= f, axis=1), C < cv)
-            if weak.any():
+            if _weakly_dominated(G, C, f[None, :], np.array([cv])).any():
                 return False
             dom = np.where((cv > 0.0) | (C > 0.0), cv < C,
                            np.all(f <= G, axis=1) & np.any(f < G, axis=1))
@@ -190,9 +189,7 @@ class ParetoArchive:
             G, C = self._arrays()
             if np.isfinite(G).all() and np.isfinite(C).all() and np.isfinite(F).all() \
                     and np.isfinite(cv).all():
-                le = np.all(G[:, None, :] <= F[None, :, :], axis=2)
-                weak = np.where(C[:, None] == cv[None, :], le, C[:, None] < cv[None, :])
-                offer = np.flatnonzero(~weak.any(axis=0)).tolist()
+                offer = np.flatnonzero(~_weakly_dominated(G, C, F, cv).any(axis=0)).tolist()
         for k in offer:
             self.add(items[k], F[k], cv[k])
 
@@ -207,6 +204,13 @@ class ParetoArchive:
     def sorted(self) -> list:
         """The items ``(item, f, cv)`` sorted by (violation, objective 1, objective 2, ...)."""
         return sorted(self.items, key=lambda a: (a[2],) + tuple(a[1]))
+
+
+def _weakly_dominated(G, C, F, cv) -> np.ndarray:
+    """``[i, k]``: archived row ``G[i]`` (violation ``C[i]``) weakly constraint-dominates the
+    offer ``F[k]`` (violation ``cv[k]``) -- :func:`weakly_dominates` on arrays."""
+    return np.where(C[:, None] == cv[None, :], np.all(G[:, None, :] <= F[None, :, :], axis=2),
+                    C[:, None] < cv[None, :])
 
 
 @dataclass(frozen=True)
