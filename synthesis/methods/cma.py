@@ -86,6 +86,7 @@ class CMA:
         self.sigma0, self.seed = float(sigma), int(seed)
         self.restart_sigma, self.restart_stall = restart_sigma, restart_stall
         self.restarts, self.best_key, self.best_x, self.stall = 0, (math.inf, math.inf), None, 0
+        self.stall_mark = self.best_key   # the best key when the stall count last ended
         self.es = self._strategy(x0, self.seed, popsize)
         self._pending = None
 
@@ -129,9 +130,12 @@ class CMA:
             self._pending = self.es.ask()
         return np.asarray(self.x(self._pending), float)      # x() is elementwise: rows too
 
-    def tell(self, values) -> None:
+    def tell(self, values, stall_gain: float = 0.0) -> None:
         """Values to minimise of the candidates of the last :meth:`ask`, same order: floats, or
-        ``(violation, value)`` pairs (compared as tuples)."""
+        ``(violation, value)`` pairs (compared as tuples).  ``stall_gain``: this generation
+        ends the stall count (``restart_stall``) only if its best beats the best at the last
+        end of a stall by more than this share (a lower violation always does); 0: any better
+        value does."""
         if self._pending is None:
             raise RuntimeError("tell() without a pending ask()")
         keys = [(float(v[0]), float(v[1])) if isinstance(v, tuple) else (0.0, float(v))
@@ -149,8 +153,12 @@ class CMA:
         self.es.tell(self._pending, fitness)
         i = min(range(len(keys)), key=keys.__getitem__)
         if keys[i] < self.best_key:
-            self.best_key, self.best_x, self.stall = keys[i], \
-                [float(v) for v in self.x(self._pending[i])], 0
+            self.best_key, self.best_x = keys[i], [float(v) for v in self.x(self._pending[i])]
+        mark = self.stall_mark
+        if stall_gain:                 # a better value by more than the share `stall_gain`
+            mark = (mark[0], mark[1] - stall_gain * abs(mark[1]))
+        if keys[i] < mark:
+            self.stall, self.stall_mark = 0, self.best_key
         else:
             self.stall += 1
         self._pending = None
@@ -181,10 +189,11 @@ class CMA:
         child.es.opts["randn"].rng = np.random.default_rng(seed)
         child.seed, child.restarts = int(seed), 0
         child.best_key, child.best_x, child.stall = (math.inf, math.inf), None, 0
+        child.stall_mark = child.best_key
         return child
 
     _STATE = ("es", "scale", "scale_floor", "relative", "sigma0", "seed", "restart_sigma",
-              "restart_stall", "restarts", "best_key", "best_x", "stall")
+              "restart_stall", "restarts", "best_key", "best_x", "stall", "stall_mark")
 
     def state(self) -> str:
         """The optimiser with its generator, scale and restart bookkeeping, pickled (base64)."""
@@ -196,6 +205,7 @@ class CMA:
     def load_state(self, text: str) -> "CMA":
         """Restore a :meth:`state` (unpickled: load only checkpoints this program wrote)."""
         st = pickle.loads(base64.b64decode(text))
+        st.setdefault("stall_mark", st.get("best_key", self.best_key))  # older checkpoints
         for k, v in st.items():
             setattr(self, k, v)
         self._pending = None

@@ -62,6 +62,12 @@ class RefineConfig:
     restart_gain: float = setting(1e-4, "an IPOP restart of the basic solution's search that "
                                         "improves its best value by less than this share is a "
                                         "failed one (basis_patience)", 0.0, 1.0)
+    stall_gain: float = setting(1e-4, "when no epoch of the structure search fits "
+                                      "(basis_patience applies), the basic solution's CMA-ES "
+                                      "makes an IPOP restart once its best has improved by "
+                                      "less than this share over 60 generations (0 = only "
+                                      "after 60 generations without any better value)",
+                                0.0, 1.0)
     evals: int = setting(200, "CMA-ES evaluations per refined law after every epoch (0 = the "
                               "GA alone)", 0, 10_000_000)
     laws: int = setting(1, "laws refined after every epoch: the best by the target, distinct "
@@ -273,8 +279,11 @@ class Refinement:
                 continue
             n = s.cma.popsize
             rows = members[i:i + n]
+            # [choice] where the whole budget is this CMA-ES (no epoch fits: ``patience``),
+            # it stalls unless it improves by ``stall_gain``: a 1e-9 creep is no progress
+            gain = self.cfg.stall_gain if s.patience else 0.0
             s.cma.tell(self.target.keys(np.array([m.f for m in rows]),
-                                        [m.cv for m in rows]))
+                                        [m.cv for m in rows]), stall_gain=gain)
             for m in rows:
                 if self.target.better(m.f, s.best_f, m.cv, s.best_cv):
                     s.best_bits, s.best_f, s.best_cv = m.bits.copy(), m.f.copy(), m.cv

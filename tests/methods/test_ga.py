@@ -147,7 +147,7 @@ def _bowl_objectives(laws):
 
 
 def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise",
-                 generations=7, patience=0, flights=0, starts=1):
+                 generations=7, patience=0, flights=0, starts=1, stall_gain=None):
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
     psi[3, 3], psi[4, 4], psi[5, 5] = 1, 2, 1
@@ -158,7 +158,8 @@ def _refining_ga(seed, refine_evals=300, refine_basis=0, basis_rule="compromise"
                    restart_from="best", stall_gain=1e-3)
     # forms=0: the `laws` best refined, `refine_evals` each (the mode these tests pin)
     refine = RefineConfig(evals=refine_evals, laws=2, basis=refine_basis,
-                          basis_patience=patience, starts=starts, forms=0)
+                          basis_patience=patience, starts=starts, forms=0,
+                          **({} if stall_gain is None else {"stall_gain": stall_gain}))
     return VariationalGA(GrayCodec(2, 2, 14, -2.0, 2.0), [1.0, 1.0], np.random.default_rng(seed),
                          cfg, sc, psi, decode=_bowl_law, target=Target(0, 1, 100.0),
                          refine=refine, generations=generations, flights=flights)
@@ -281,6 +282,47 @@ def test_basis_refinement_goes_on_while_its_restarts_improve():
                 assert not all(failed[i + 1 - patience:i + 1])
         # the same seed flies the same search up to the budget, so going on can only help
         assert trace[:len(fixed)] == fixed and f[0] <= f_fixed[0] and f[1] < 100.0
+
+
+def _creep_trace(flights, stall_gain=None):
+    """The basis refinement on a landscape whose best creeps down by 1e-9 every flown batch
+    (the cart-pole's plateau in miniature: every generation is "better"): (evaluations, IPOP
+    restarts) of the search after every CMA-ES generation."""
+    a, trace, n = _refining_ga(3, refine_evals=0, refine_basis=400, patience=1, flights=flights,
+                               stall_gain=stall_gain), [], [0]
+
+    def creep(laws):
+        n[0] += 1
+        return np.array([(10.0 - 1e-9 * n[0], 0.0)] * len(laws))
+    while True:
+        cands = a.ask()
+        if a._pending[0] == "children":
+            return trace
+        s = a.refinement.searches[0] if a._pending[0] == "refine" else None
+        a.tell(creep(cands), np.zeros(len(cands)))
+        if s is not None:
+            trace.append((s.evals, s.cma.restarts))
+
+
+def test_basis_stall_gain_restarts_a_creeping_basis_search_only_where_no_epoch_fits():
+    # stall_gain (the rule's definition): where no epoch of the structure search fits (430
+    # flights: 14 left after the population and the basis budget, one epoch is 48 children),
+    # the basis CMA-ES (6 candidates a generation: pycma's 4 + 3 ln 2) stalls unless its best
+    # improves by 1e-4 of itself; creeping by 1e-10 of itself, it restarts after 1 + 60
+    # generations (366 flights), again after 60 generations of 12 (1 086: the restart gained
+    # nothing, `basis_patience` 1 ends it there).  With stall_gain 0 no restart fires: it runs
+    # to the cap (10 x 400, whole generations).  With room for an epoch (patience 0) the
+    # default rule flies exactly what stall_gain 0 flies: it stops at the budget (402)
+    default = RefineConfig().stall_gain
+    assert default == 1e-4
+    tight = _creep_trace(430)
+    restarts = [e for (e, r), (_, r0) in zip(tight[1:], tight) if r > r0]
+    assert restarts == [366, 1086] and tight[-1] == (1086, 2)
+    plain = _creep_trace(430, stall_gain=0.0)
+    assert plain[-1] == (4002, 0)
+    roomy = _creep_trace(16 + 400 + 48)
+    assert roomy == _creep_trace(16 + 400 + 48, stall_gain=0.0) == plain[:len(roomy)]
+    assert roomy[-1] == (402, 0)
 
 
 def _basis_starts(starts, state=None):

@@ -176,3 +176,33 @@ def test_cma_restart_bookkeeping_survives_a_checkpoint():
     c = run(CMA([0.0, 0.0], 0.3, seed=1).load_state(b.state()), 80)
     assert a.restarts >= 1 and c.restarts == a.restarts and c.popsize == a.popsize
     assert c.best_x == a.best_x and c.best_key == a.best_key
+
+
+def test_cma_stall_gain_restarts_a_creeping_search():
+    # stall_gain (the definition in CMA.tell): a generation ends the stall count only if its
+    # best beats the best at the count's last end by more than that share.  A search whose
+    # best creeps by 1e-9 (relative 1e-10) every generation: with stall_gain 1e-4 its IPOP
+    # restart (restart_stall 60) fires at exactly the 61st generation (the first ends the
+    # count: it beats no value at all, then 60 stall); with 0 (every better value ends the
+    # count) it never fires
+    def creep(c, gens, gain):
+        for g in range(gens):
+            c.tell([10.0 - 1e-9 * g] * len(c.ask()), stall_gain=gain)
+        return c
+    c = creep(CMA([0.5, 0.5], 0.3, seed=4, restart_stall=60), 60, 1e-4)
+    assert c.restarts == 0 and c.stall == 59
+    assert creep(c, 1, 1e-4).restarts == 1 and c.stall == 0
+    plain = creep(CMA([0.5, 0.5], 0.3, seed=4, restart_stall=60), 200, 0.0)
+    assert plain.restarts == 0 and plain.stall == 0
+    # a lower violation always ends the count, however small the value's gain
+    v = CMA([0.5, 0.5], 0.3, seed=4, restart_stall=60)
+    for g in range(100):
+        v.tell([(1.0 - 1e-3 * g, 10.0)] * len(v.ask()), stall_gain=1e-4)
+    assert v.restarts == 0 and v.stall == 0
+    # the mark survives a checkpoint: a restored search restarts at the same generation
+    a = creep(CMA([0.5, 0.5], 0.3, seed=4, restart_stall=60), 30, 1e-4)
+    b = CMA([0.0, 0.0], 0.3, seed=1).load_state(a.state())
+    for g in range(30, 61):
+        b.tell([10.0 - 1e-9 * g] * len(b.ask()), stall_gain=1e-4)
+    assert b.restarts == 1 and b.stall_mark == (0.0, 10.0)
+    assert creep(a, 30, 1e-4).restarts == 0 and creep(a, 1, 1e-4).restarts == 1
