@@ -12,12 +12,16 @@ import numpy as np
 from descent_fmus.models.controllers.operation_table import BINARY_OPS
 from descent_fmus.synthesis.methods.pareto import dominance_counts
 
-__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "form_skeleton",
+__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "SWEEP_EPOCHS", "form_skeleton",
            "preserving_constants", "touched_constants", "upstream"]
 
 #: [choice] a new island is started only when the flights left hold this many epochs of the
 #: structure search (docs/methods/network_operator.md, "islands")
 ISLAND_EPOCHS = 3
+#: [choice] the neighbourhood sweep (``refine sweep``) is flown only when the flights left
+#: after it hold this many epochs of the structure search: its forms are tuned by the
+#: halving after an epoch (docs/methods/network_operator.md, "The one-operation neighbourhood")
+SWEEP_EPOCHS = 1
 #: [choice] the screening's moves, in this order (the first ``screen_evals`` are flown): the
 #: constants a form's variations touched times the first factor, the others times the second.
 #: What a new form's inherited constants most often miss is their scale (an operation put on
@@ -279,7 +283,9 @@ class FormSearch:
         taken once per skeleton (:func:`form_skeleton`: not the basic law's, nor another
         neighbour's), each flown with the basic law's constants scaled as the screening does
         (:meth:`_scaled_rows`, the first ``sweep`` pairs).  Reads no random numbers; the form
-        of each candidate is kept for :meth:`_finish_sweep`."""
+        of each candidate is kept for :meth:`_finish_sweep`.  None when the flights left
+        after them would not hold ``SWEEP_EPOCHS`` epochs of the structure search: the swept
+        forms are tuned by the halving after an epoch."""
         self._sweep_k = []
         n = self.refine_cfg.sweep
         if not n or self.structure is None or self.target is None or not self._lchr:
@@ -300,6 +306,10 @@ class FormSearch:
                 rows = self._scaled_rows(m, n)
                 out += rows
                 self._sweep_k += [len(seen)] * len(rows)
+        if not self._room(SWEEP_EPOCHS, len(out)):
+            self.stats["sweep_skipped"] = len(out)
+            self._sweep_k = []
+            return []
         return out
 
     def _finish_sweep(self, members) -> None:
@@ -568,10 +578,15 @@ class FormSearch:
     def _island_room(self) -> bool:
         """Whether the flights left (none counted: yes) hold ``ISLAND_EPOCHS`` epochs of the
         structure search (each its children and the refinement after it)."""
+        return self._room(ISLAND_EPOCHS)
+
+    def _room(self, epochs: int, spend: int = 0) -> bool:
+        """Whether the flights left after ``spend`` more (none counted: yes) hold ``epochs``
+        epochs of the structure search (each its children and the refinement after it)."""
         if not self.flights:
             return True
         epoch = self.cfg.epoch * 4 * self.cfg.crossovers + self.refine_cfg.epoch_evals()
-        return self.flights - self.evaluations >= ISLAND_EPOCHS * epoch
+        return self.flights - self.evaluations - spend >= epochs * epoch
 
     def _island_state(self) -> dict:
         """The islands' part of the checkpoint."""

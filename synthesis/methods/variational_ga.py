@@ -221,6 +221,8 @@ class VariationalGA(FormSearch, Method):
             # structure search then builds on a tuned basis
             self._refine_due = False
             self._start_refine(basis=True)
+        if phase == "rescale":          # the sweep waited for the new coordinates
+            self._start_sweep()
         if phase == "epoch":
             self._pending_trim = self._trim_candidates()
             if self._pending_trim:
@@ -424,10 +426,14 @@ class VariationalGA(FormSearch, Method):
         if self._basis_refining and self.rescale is not None and self._template is None:
             self._rescaled(self.rescale(self.candidate(self.pop[0]).law))
         if self._basis_refining and self._pending is None:
-            sweep = self._sweep_members()
-            if sweep:
-                self._pending = ("sweep", sweep)
+            self._start_sweep()
         self._basis_refining = False
+
+    def _start_sweep(self) -> None:
+        """The neighbourhood sweep of the tuned basic law (``refine sweep``), pending."""
+        sweep = self._sweep_members()
+        if sweep:
+            self._pending = ("sweep", sweep)
 
     def _rescaled(self, law) -> None:
         """Decode every candidate with ``law``'s input coordinates from now on (see

@@ -105,16 +105,27 @@ def test_the_sweep_flies_each_one_operation_neighbour_once_per_skeleton():
     from descent_fmus.synthesis.methods.encoding import GrayCodec
     from descent_fmus.synthesis.methods.pareto import Target
     from descent_fmus.synthesis.methods.variational_ga import VariationalGA
-    ga = VariationalGA(GrayCodec(3, 11, 31, -1024.0, 1024.0), BASIC.q,
-                       np.random.default_rng(7),
-                       GAConfig(population=16, crossovers=4, lchr=2, epoch=2),
-                       StructureCodec(24, 5, (1, 4, 10), (1, 2)), BASIC.psi,
-                       BASIC.with_structure, target=Target(0),
-                       refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8))
-    phases = []
-    while "sweep" not in phases:                 # the initial population, the basis search
-        ga.tell(_toy([c.law for c in ga.ask()]))
-        phases.append(ga._pending[0] if ga._pending else ga.phase)
+    def run(flights):
+        """A GA with a flight budget (0: none), flown to the end of its basis search."""
+        ga = VariationalGA(GrayCodec(3, 11, 31, -1024.0, 1024.0), BASIC.q,
+                           np.random.default_rng(7),
+                           GAConfig(population=16, crossovers=4, lchr=2, epoch=2),
+                           StructureCodec(24, 5, (1, 4, 10), (1, 2)), BASIC.psi,
+                           BASIC.with_structure, target=Target(0),
+                           refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8),
+                           flights=flights)
+        while ga.refinement.active or not ga.pop:     # the initial population, the basis
+            ga.tell(_toy([c.law for c in ga.ask()]))
+        return ga
+
+    # an epoch is 2 generations x 4 crossovers x 4 children + the halving's 4 x 10 + 2 x 10
+    # + 20 = 112 flights: a budget that leaves less after the sweep's 80 flies none of it
+    ga = run(flights=200)           # (room for the basis search to stop at its budget)
+    left = 200 - ga.evaluations - 80
+    assert 0 < left < 112 and ga._pending is None and ga.stats["sweep_skipped"] == 80
+    ga = run(flights=ga.evaluations + 80 + 112)            # just room: the sweep is due
+    assert ga._pending[0] == "sweep"
+    ga = run(flights=0)                                    # no budget counted: due
     # hand count, unary set (id, ssqrt, sgn): ssqrt and sgn on x1 -> q1 x1, on x2 -> q2 x2, on
     # q1 x1 -> sum, on q2 x2 -> sum and on the sum's first chain arc (the later chain arcs
     # and the constants' arcs give no new skeleton): 10 forms, 8 flights each, one batch
