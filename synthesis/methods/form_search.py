@@ -66,7 +66,8 @@ def form_skeleton(psi, nx: int, nq: int, outputs) -> str:
     flattened, its terms sorted (a sum's taken once, without their free scales:
     ``x1 + c*x1 + c`` has the skeleton of ``c*x1 + c``, ``+[c,x1]``).  Two laws with one
     skeleton are one form with other constants; a changed operation on a path from an input
-    changes it.  [choice] docs/methods/network_operator.md "Forms by skeleton"."""
+    changes it.  docs/methods/network_operator.md, "The one-operation neighbourhood of the
+    tuned basic law, and forms by skeleton"."""
     psi = np.asarray(psi)
     L, ns = len(psi), nx + nq
     expr = [f"x{k}" for k in range(nx)] + ["c"] * (L - nx)

@@ -1,6 +1,8 @@
 """Forms by skeleton (``[refine] distinct = 'skeleton'``): a law's expression with its constants
 abstracted, and the successive halving's new forms taken by it, so a twin of the best law in
-another matrix takes no slot (docs/methods/network_operator.md, "Forms by skeleton")."""
+another matrix takes no slot; the one-operation neighbourhood sweep of the tuned basic law
+(``[refine] sweep``) that flies each new skeleton once (docs/methods/network_operator.md, "The
+one-operation neighbourhood of the tuned basic law, and forms by skeleton")."""
 from __future__ import annotations
 
 import numpy as np
