@@ -9,14 +9,19 @@ from __future__ import annotations
 
 import numpy as np
 
+from descent_fmus.models.controllers.operation_table import BINARY_OPS
 from descent_fmus.synthesis.methods.pareto import dominance_counts
 
-__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "preserving_constants",
-           "touched_constants", "upstream"]
+__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "SWEEP_EPOCHS", "form_skeleton",
+           "preserving_constants", "touched_constants", "upstream"]
 
 #: [choice] a new island is started only when the flights left hold this many epochs of the
 #: structure search (docs/methods/network_operator.md, "islands")
 ISLAND_EPOCHS = 3
+#: [choice] the neighbourhood sweep (``refine sweep``) is flown only when the flights left
+#: after it hold this many epochs of the structure search: its forms are tuned by the
+#: halving after an epoch (docs/methods/network_operator.md, "The one-operation neighbourhood")
+SWEEP_EPOCHS = 1
 #: [choice] the screening's moves, in this order (the first ``screen_evals`` are flown): the
 #: constants a form's variations touched times the first factor, the others times the second.
 #: What a new form's inherited constants most often miss is their scale (an operation put on
@@ -39,6 +44,65 @@ def upstream(psi, nodes) -> np.ndarray:
         if mark[b]:
             mark[:b] |= psi[:b, b] != 0
     return mark
+
+
+#: unary operations that only scale their argument (identity, negation, halving, doubling):
+#: a constant factor, which the skeleton absorbs
+_SCALING = {1, 3, 20, 21}
+#: binary operations whose operands commute and repeat idempotently in a skeleton (sum and
+#: product: a repeated term or factor is the same term with another constant)
+_LINEAR_FOLD = {1: "+", 2: "*"}
+#: a skeleton's mark of a free scale (a product with a constant factor)
+_SCALED = "c*"
+
+
+def form_skeleton(psi, nx: int, nq: int, outputs) -> str:
+    """The law's form with its constants abstracted: the expression of each output node of
+    matrix ``psi`` (``nx`` inputs ``x0, x1, ..``, then ``nq`` constants; node ``j`` folds its
+    binary operation ``psi[j, j]`` over ``rho(z_i)`` of its arcs ``i -> j``) in which every
+    value that reads no input is one constant ``c``, a scaling operation (identity, negation,
+    halving, doubling) is dropped, a product with a constant factor is ``c*`` its other
+    factors (a free scale: ``sin(c*x0)`` is not ``sin(x0)``), and a sum or product is
+    flattened, its terms sorted (a sum's taken once, without their free scales:
+    ``x1 + c*x1 + c`` has the skeleton of ``c*x1 + c``, ``+[c,x1]``).  Two laws with one
+    skeleton are one form with other constants; a changed operation on a path from an input
+    changes it.  docs/methods/network_operator.md, "The one-operation neighbourhood of the
+    tuned basic law, and forms by skeleton"."""
+    psi = np.asarray(psi)
+    L, ns = len(psi), nx + nq
+    expr = [f"x{k}" for k in range(nx)] + ["c"] * (L - nx)
+    folds = {}                          # a sum's or product's skeleton -> (sign, its terms)
+    for j in range(ns, L):
+        b = int(psi[j, j])
+        terms = [expr[i] if expr[i] == "c" or int(psi[i, j]) in _SCALING
+                 else f"u{int(psi[i, j])}({expr[i]})"
+                 for i in range(j) if psi[i, j] and b]
+        if not terms or all(t == "c" for t in terms):
+            continue                        # reads no input: a constant
+        if len(terms) == 1 or (b == 1 and len(set(terms)) == 1):
+            one = b in _LINEAR_FOLD or BINARY_OPS[b].first == "b"
+            expr[j] = terms[0] if one else f"b{b}({terms[0]})"    # one term: its value
+            continue
+        sym = _LINEAR_FOLD.get(b)
+        if sym is None:
+            expr[j] = f"b{b}(" + ",".join(terms) + ")"
+            continue
+        flat, scaled = [], False
+        for t in terms:
+            core = t[2:] if t.startswith(_SCALED) else t
+            scaled |= core != t or t == "c"
+            inner = folds.get(core)
+            flat += list(inner[1]) if inner and inner[0] == sym else [core]
+        if sym == "*":                      # the constant factors: one free scale
+            uniq = sorted(t for t in flat if t != "c")     # x0 x0 is not x0
+            core = uniq[0] if len(uniq) == 1 else "*[" + ",".join(uniq) + "]"
+            expr[j] = _SCALED + core if scaled else core
+        else:                               # a sum's terms without their scales
+            uniq = sorted(set(flat))
+            core = expr[j] = uniq[0] if len(uniq) == 1 else "+[" + ",".join(uniq) + "]"
+        if len(uniq) > 1:
+            folds[core] = (sym, tuple(uniq))
+    return "; ".join(expr[o - 1] for o in outputs)
 
 
 def touched_constants(psi0, psi, nx: int, m: int) -> list:
@@ -186,22 +250,79 @@ class FormSearch:
         if len(forms) > cfg.screen:
             forms = [forms[int(r)] for r in np.floor(np.arange(cfg.screen) * len(forms)
                                                      / cfg.screen)]
-        nx = self.structure.n_sources - codec.n
         out = []
         for k in forms:
-            m = self.pop[k]
-            idx = touched_constants(self.psi0, self.matrix(m), nx, codec.n)
-            if not idx:
-                continue
-            q = np.array(codec.decode(m.bits))
-            base = np.where(q[idx] == 0.0, 1.0, q[idx])
-            rest = np.setdiff1d(np.arange(codec.n), idx)
-            for touched, others in SCREEN_FACTORS[:cfg.screen_evals]:
-                q2 = q.copy()
-                q2[idx], q2[rest] = base * touched, q[rest] * others
-                out.append(type(m)(list(m.variations), codec.encode(q2)))
-                self._screen_k.append(k)
+            rows = self._scaled_rows(self.pop[k], cfg.screen_evals)
+            out += rows
+            self._screen_k += [k] * len(rows)
         return out
+
+    def _scaled_rows(self, m, n: int) -> list:
+        """Copies of member ``m`` with the constants its variations touched (against the
+        basis, :func:`touched_constants`) and the others times each of the first ``n`` pairs
+        of :data:`SCREEN_FACTORS` (a touched constant at 0 as if it were 1); none when its
+        change touches no constant."""
+        codec = self.params
+        nx = self.structure.n_sources - codec.n
+        idx = touched_constants(self.psi0, self.matrix(m), nx, codec.n)
+        if not idx:
+            return []
+        q = np.array(codec.decode(m.bits))
+        base = np.where(q[idx] == 0.0, 1.0, q[idx])
+        rest = np.setdiff1d(np.arange(codec.n), idx)
+        out = []
+        for touched, others in SCREEN_FACTORS[:n]:
+            q2 = q.copy()
+            q2[idx], q2[rest] = base * touched, q[rest] * others
+            out.append(type(m)(list(m.variations), codec.encode(q2)))
+        return out
+
+    def _sweep_members(self) -> list:
+        """The neighbourhood sweep's candidates (``sweep``), once, when the basic solution's
+        search ends: every form one changed unary operation away from the tuned basic law
+        (each arc of its matrix, each operation of the structure's set, in matrix order),
+        taken once per skeleton (:func:`form_skeleton`: not the basic law's, nor another
+        neighbour's), each flown with the basic law's constants scaled as the screening does
+        (:meth:`_scaled_rows`, the first ``sweep`` pairs).  Reads no random numbers; the form
+        of each candidate is kept for :meth:`_finish_sweep`.  None when the flights left
+        after them would not hold ``SWEEP_EPOCHS`` epochs of the structure search: the swept
+        forms are tuned by the halving after an epoch."""
+        self._sweep_k = []
+        n = self.refine_cfg.sweep
+        if not n or self.structure is None or self.target is None or not self._lchr:
+            return []
+        basis = self.pop[0]
+        psi = self.matrix(basis)
+        seen, out = {self._skeleton(basis)}, []
+        for i, j in zip(*np.nonzero(np.triu(psi, 1))):
+            for op in self.structure.unary:
+                if op == psi[i, j]:
+                    continue
+                m = type(basis)([(0, int(i), int(j), int(op))] + list(basis.variations[1:]),
+                                basis.bits.copy())
+                sk = self._skeleton(m)
+                if sk in seen:
+                    continue
+                seen.add(sk)
+                rows = self._scaled_rows(m, n)
+                out += rows
+                self._sweep_k += [len(seen)] * len(rows)
+        if not self._room(SWEEP_EPOCHS, len(out)):
+            self.stats["sweep_skipped"] = len(out)
+            self._sweep_k = []
+            return []
+        return out
+
+    def _finish_sweep(self, members) -> None:
+        """The best flight of each swept form joins the population as a child does."""
+        best = {}
+        for k, m in zip(self._sweep_k, members):
+            if k not in best or self.target.better(m.f, best[k].f, m.cv, best[k].cv):
+                best[k] = m
+        for m in best.values():
+            self._insert(m)
+        self.stats["swept_forms"] = self.stats.get("swept_forms", 0) + len(best)
+        self._sweep_k = []
 
     def _finish_screen(self, members) -> None:
         """Each screened member takes the best of its flights when it beats its own value
@@ -221,6 +342,7 @@ class FormSearch:
         ``n`` unless ``spread``."""
         picks, seen, values = [], set(), set()
         forms = self.refine_cfg.forms
+        skeletons = forms and self.refine_cfg.distinct == "skeleton"
         for k in self.target.order(self.F, self.CV):
             if n is not None and len(picks) >= n and not spread:
                 break
@@ -229,10 +351,29 @@ class FormSearch:
             if key in seen or (forms and (f in values or (picks and key in
                                                          self.refinement.pool))):
                 continue
+            if skeletons:
+                sk = self._skeleton(m)
+                if picks and (sk in seen or sk in self.tuned_skeletons):
+                    continue
+                seen.add(sk)
             seen.add(key)
             values.add(f)
             picks.append(int(k))
         return picks
+
+    @property
+    def tuned_skeletons(self) -> set:
+        """The skeletons of the forms the halving tuned (``distinct = 'skeleton'``; in the
+        checkpoint)."""
+        return self.__dict__.setdefault("_tuned_skeletons", set())
+
+    def _skeleton(self, m) -> str:
+        """:func:`form_skeleton` of member ``m``'s law (its matrix key when the decoded law
+        has no matrix)."""
+        law = self.decode(self.matrix(m), self.params.decode(m.bits))
+        if not hasattr(law, "outputs"):
+            return self._structure_key(m)
+        return form_skeleton(law.psi, law.nx, len(law.q), law.outputs)
 
     def _promising(self, n: int) -> list:
         """The ``n`` best members by the target with distinct structures; with ``forms``, also
@@ -250,6 +391,8 @@ class FormSearch:
             ranks = np.floor(np.arange(n - 1) * len(rest) / (n - 1)).astype(int)
             picks = [picks[0]] + [rest[int(r)] for r in ranks]
         picks = picks[:n]
+        if forms and self.refine_cfg.distinct == "skeleton":
+            self.tuned_skeletons.update(self._skeleton(self.pop[k]) for k in picks)
         if forms:
             self.stats["new_form_picks"] = [self._structure_key(self.pop[k])
                                             for k in picks[1:]]
@@ -436,10 +579,15 @@ class FormSearch:
     def _island_room(self) -> bool:
         """Whether the flights left (none counted: yes) hold ``ISLAND_EPOCHS`` epochs of the
         structure search (each its children and the refinement after it)."""
+        return self._room(ISLAND_EPOCHS)
+
+    def _room(self, epochs: int, spend: int = 0) -> bool:
+        """Whether the flights left after ``spend`` more (none counted: yes) hold ``epochs``
+        epochs of the structure search (each its children and the refinement after it)."""
         if not self.flights:
             return True
         epoch = self.cfg.epoch * 4 * self.cfg.crossovers + self.refine_cfg.epoch_evals()
-        return self.flights - self.evaluations >= ISLAND_EPOCHS * epoch
+        return self.flights - self.evaluations - spend >= epochs * epoch
 
     def _island_state(self) -> dict:
         """The islands' part of the checkpoint."""

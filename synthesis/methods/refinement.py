@@ -97,6 +97,17 @@ class RefineConfig:
                                 "before, then 'spread'); default 'spread' in a problem "
                                 "file, 'best' for a registered system",
                         choices=("best", "spread", "adaptive"))
+    distinct: str = setting("matrix", "what makes a form new for the halving: 'matrix' (its "
+                                      "matrix differs) or 'skeleton' (its expression with "
+                                      "the constants abstracted differs from the best law's, "
+                                      "from every other pick's and from every form tuned "
+                                      "before: a twin of the best law in another matrix "
+                                      "takes no slot)", choices=("matrix", "skeleton"))
+    sweep: int = setting(0, "once the basic solution's search ends: every form one "
+                            "changed unary operation away from the tuned basic law (one per "
+                            "skeleton) is flown this many times, its touched constants and "
+                            "the others scaled as the screening does, and the best flight "
+                            "of each joins the population (0 = off)", 0, 12)
     screen: int = setting(0, "new forms screened after every epoch, before the halving: "
                              "each gets `screen_evals` flights of a search over the scale of "
                              "the constants its variations touched (and of the others), and "

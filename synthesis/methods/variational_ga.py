@@ -198,6 +198,8 @@ class VariationalGA(FormSearch, Method):
         elif phase == "refine":
             if self.refinement.tell(members):
                 self._finish_refine()
+        elif phase == "sweep":
+            self._finish_sweep(members)
         elif phase == "screen":
             self._finish_screen(members)
             self._start_refine(screen=False)
@@ -219,6 +221,8 @@ class VariationalGA(FormSearch, Method):
             # structure search then builds on a tuned basis
             self._refine_due = False
             self._start_refine(basis=True)
+        if phase == "rescale":          # the sweep waited for the new coordinates
+            self._start_sweep()
         if phase == "epoch":
             self._pending_trim = self._trim_candidates()
             if self._pending_trim:
@@ -421,7 +425,15 @@ class VariationalGA(FormSearch, Method):
         self.lh = dominance_counts(self.F, self.CV)
         if self._basis_refining and self.rescale is not None and self._template is None:
             self._rescaled(self.rescale(self.candidate(self.pop[0]).law))
+        if self._basis_refining and self._pending is None:
+            self._start_sweep()
         self._basis_refining = False
+
+    def _start_sweep(self) -> None:
+        """The neighbourhood sweep of the tuned basic law (``refine sweep``), pending."""
+        sweep = self._sweep_members()
+        if sweep:
+            self._pending = ("sweep", sweep)
 
     def _rescaled(self, law) -> None:
         """Decode every candidate with ``law``'s input coordinates from now on (see
@@ -455,6 +467,8 @@ class VariationalGA(FormSearch, Method):
             "refine": None if self.refinement is None else self.refinement.state(),
             "template": self._template, "basis_refining": self._basis_refining,
             "stats": self.stats, **self._island_state(),
+            **({"tuned_skeletons": sorted(self.tuned_skeletons)} if self.tuned_skeletons
+               else {}),
         }
 
     def load_state(self, st: dict) -> "VariationalGA":
@@ -475,6 +489,7 @@ class VariationalGA(FormSearch, Method):
         self._template = st.get("template")
         self._basis_refining = st.get("basis_refining", False)
         self.stats = dict(st.get("stats", {}))
+        self._tuned_skeletons = set(st.get("tuned_skeletons", []))
         self._load_island_state(st)
         if self._template is not None:
             from descent_fmus.synthesis.methods.law import NetworkOperator

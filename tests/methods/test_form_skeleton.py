@@ -1,0 +1,145 @@
+"""Forms by skeleton (``[refine] distinct = 'skeleton'``): a law's expression with its constants
+abstracted, and the successive halving's new forms taken by it, so a twin of the best law in
+another matrix takes no slot; the one-operation neighbourhood sweep of the tuned basic law
+(``[refine] sweep``) that flies each new skeleton once (docs/methods/network_operator.md, "The
+one-operation neighbourhood of the tuned basic law, and forms by skeleton")."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from descent_fmus.synthesis.methods.encoding import StructureCodec
+from descent_fmus.synthesis.methods.form_search import form_skeleton
+from descent_fmus.synthesis.methods.refinement import RefineConfig
+from descent_fmus.synthesis.methods.settings import SettingError
+from descent_fmus.synthesis.methods.variational_ga import _Member
+from test_screen import BASIC, SSQRT, _ga
+
+CODEC = StructureCodec(24, 5)
+#: variations of BASIC (u = q1 x1 + q2 x2 + q3 at node 7, identities to node 23) that leave
+#: its form: x1 added into the sum (x1 + q1 x1 = (1 + q1) x1), the arc q1 x1 -> sum negated,
+#: sin(q3) added further down (a constant), the chain's node 9 turned into a product (of one
+#: term: the same value), or an atan2 (of one term: the same value too)
+TWINS = {"x1 into the sum": (2, 0, 7, 1), "a negated arc": (0, 5, 7, 3),
+         "sin of a constant": (2, 4, 9, 12), "a one-term product": (1, 0, 9, 2),
+         "a one-term atan2": (1, 0, 9, 9)}
+#: variations that make another form: x1's product through ssqrt; sgn of x2's product added to
+#: the chain; the sum made a product
+NEW = {"ssqrt": (SSQRT, "+[c,u4(c*x0),x1]"),
+       "sgn": ((2, 6, 8, 10), "+[c,u10(c*x1),x0,x1]"), "product": ((1, 0, 7, 2), "c**[x0,x1]"),
+       "ssqrt of x1, scaled after": ((0, 0, 5, 4), "+[c,u4(x0),x1]")}
+
+
+def _skeleton(variation) -> str:
+    psi = CODEC.apply(BASIC.psi, [variation])
+    return form_skeleton(psi, BASIC.nx, len(BASIC.q), BASIC.outputs)
+
+
+def test_the_linear_laws_skeleton_and_its_twins():
+    # hand count: u = q1 x1 + q2 x2 + q3 -> one constant, x1 and x2 (inputs x0, x1)
+    assert form_skeleton(BASIC.psi, BASIC.nx, len(BASIC.q), BASIC.outputs) == "+[c,x0,x1]"
+    for name, v in TWINS.items():
+        psi = CODEC.apply(BASIC.psi, [v])
+        assert not np.array_equal(psi, BASIC.psi), name        # another matrix ...
+        assert _skeleton(v) == "+[c,x0,x1]", name              # ... the same form
+    # the twins fly the basic law's function (the oracle: the law itself at 64 states) up to
+    # the constants: x1 into the sum is the basic law with q1 + 1, the negated arc with -q1
+    rng = np.random.default_rng(0)
+    for x in rng.uniform(-2.0, 2.0, (64, 2)):
+        twin = BASIC.with_structure(CODEC.apply(BASIC.psi, [TWINS["x1 into the sum"]]), BASIC.q)
+        moved = BASIC.with_q([BASIC.q[0] + 1.0, *BASIC.q[1:]])
+        assert twin.raw(x)[0] == pytest.approx(moved.raw(x)[0], abs=1e-12)
+        neg = BASIC.with_structure(CODEC.apply(BASIC.psi, [TWINS["a negated arc"]]), BASIC.q)
+        flipped = BASIC.with_q([-BASIC.q[0], *BASIC.q[1:]])
+        assert neg.raw(x)[0] == pytest.approx(flipped.raw(x)[0], abs=1e-12)
+
+
+def test_a_new_operation_on_a_path_from_an_input_is_a_new_skeleton():
+    for name, (v, want) in NEW.items():
+        assert _skeleton(v) == want, name
+    assert len({_skeleton(v) for v, _ in NEW.values()} | {"+[c,x0,x1]"}) == 5
+
+
+def _population(ga):
+    """The best law (1.0), two twins of it (1.01, 1.02: by matrix the top new forms), then
+    the three new forms (1.4, 1.5, 3.0)."""
+    bits = ga.params.encode(BASIC.q)
+    rows = [([], 1.0), ([TWINS["x1 into the sum"]], 1.01), ([TWINS["a negated arc"]], 1.02),
+            ([NEW["ssqrt"][0]], 1.4), ([NEW["sgn"][0]], 1.5), ([NEW["product"][0]], 3.0)]
+    ga.pop = [_Member(v + [StructureCodec.IDENTITY] * (2 - len(v)), bits.copy(), np.array([f]))
+              for v, f in rows]
+    ga.lh = np.arange(len(rows))
+    ga.refinement.searches = None
+
+
+def test_the_halving_takes_new_skeletons_not_twins_of_the_best_law():
+    ga = _ga(screen=0)
+    ga.tell(np.ones((len(ga.ask()), 1)))                        # the initial population
+    _population(ga)
+    ga.refine_cfg = RefineConfig(basis=0, evals=40, forms=4, pick="best")
+    assert ga._promising(4) == [0, 1, 2, 3]                    # by matrix: two twins
+    ga.refine_cfg = RefineConfig(basis=0, evals=40, forms=4, pick="best", distinct="skeleton")
+    assert ga._promising(4) == [0, 3, 4, 5]                    # by skeleton: three new forms
+    assert ga.tuned_skeletons == {"+[c,x0,x1]"} | {NEW[k][1] for k in ("ssqrt", "sgn",
+                                                                     "product")}
+    # the next halving: every skeleton was tuned, so the best law alone (a twin of a tuned
+    # form in yet another matrix takes no slot either)
+    assert ga._promising(4) == [0]
+    # the checkpoint keeps them: a resumed search picks the same
+    st = ga.state()
+    assert st["tuned_skeletons"] == sorted(ga.tuned_skeletons)
+    again = _ga(screen=0).load_state(st)
+    again.refine_cfg = ga.refine_cfg
+    assert again._promising(4) == [0]
+
+
+def test_distinct_is_checked():
+    with pytest.raises(SettingError, match="refine.distinct"):
+        RefineConfig(distinct="formula")
+
+
+def test_the_sweep_flies_each_one_operation_neighbour_once_per_skeleton():
+    """The neighbourhood sweep (``[refine] sweep``) on the toy objective of the screening
+    tests: the ssqrt form's closed-form best q1 is 16 x the inherited -20, the third pair of
+    SCREEN_FACTORS."""
+    from test_screen import Q1_STAR, _toy
+    from descent_fmus.synthesis.methods.ga_config import GAConfig
+    from descent_fmus.synthesis.methods.encoding import GrayCodec
+    from descent_fmus.synthesis.methods.pareto import Target
+    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
+    def run(flights):
+        """A GA with a flight budget (0: none), flown to the end of its basis search."""
+        ga = VariationalGA(GrayCodec(3, 11, 31, -1024.0, 1024.0), BASIC.q,
+                           np.random.default_rng(7),
+                           GAConfig(population=16, crossovers=4, lchr=2, epoch=2),
+                           StructureCodec(24, 5, (1, 4, 10), (1, 2)), BASIC.psi,
+                           BASIC.with_structure, target=Target(0),
+                           refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8),
+                           flights=flights)
+        while ga.refinement.active or not ga.pop:     # the initial population, the basis
+            ga.tell(_toy([c.law for c in ga.ask()]))
+        return ga
+
+    # an epoch is 2 generations x 4 crossovers x 4 children + the halving's 4 x 10 + 2 x 10
+    # + 20 = 112 flights: a budget that leaves less after the sweep's 80 flies none of it
+    ga = run(flights=200)           # (room for the basis search to stop at its budget)
+    left = 200 - ga.evaluations - 80
+    assert 0 < left < 112 and ga._pending is None and ga.stats["sweep_skipped"] == 80
+    ga = run(flights=ga.evaluations + 80 + 112)            # just room: the sweep is due
+    assert ga._pending[0] == "sweep"
+    ga = run(flights=0)                                    # no budget counted: due
+    # hand count, unary set (id, ssqrt, sgn): ssqrt and sgn on x1 -> q1 x1, on x2 -> q2 x2, on
+    # q1 x1 -> sum, on q2 x2 -> sum and on the sum's first chain arc (the later chain arcs
+    # and the constants' arcs give no new skeleton): 10 forms, 8 flights each, one batch
+    members = ga._pending[1]
+    assert len(members) == 10 * 8
+    ga.tell(_toy([ga.candidate(m).law for m in members]))
+    assert ga.stats["sweep"] == 80 and ga.stats["swept_forms"] == 10
+    # the ssqrt form (toy value 0.5 + (q1 / Q1_STAR - 1)^2) joined the population at its
+    # closed-form optimum q1 = 16 x -20 = Q1_STAR: the best law now, 0.5 (the basic form: 1)
+    best = ga.pop[int(ga.target.order(ga.F, ga.CV)[0])]
+    assert best.f[0] == pytest.approx(0.5, abs=1e-12)
+    assert ga.params.decode(best.bits)[0] == pytest.approx(Q1_STAR, rel=1e-9)
+    assert np.array_equal(ga.matrix(best), CODEC.apply(BASIC.psi, [SSQRT]))
+    # off (sweep = 0): no sweep phase, the same search as before
+    assert RefineConfig().sweep == 0
