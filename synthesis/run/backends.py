@@ -48,11 +48,13 @@ TASK_DISPATCH = {"pool": 0.0, "dask": 0.009}
 #: [choice] A local pool flies a batch of at most this many laws in the parent process (the
 #: same flyer on the same FMUs): a round trip to the workers costs more than the flights.
 SMALL_BATCH = 16
-#: [choice] A small batch flown in the parent goes in this many threads (halves in order, each
-#: thread its own loaded C master; the GIL is released in the C calls): while the parent flies
-#: a CMA-ES generation the workers are idle, so a second core is there.  Where the flights do
-#: not go through the C master's batch, one thread.
-HERE_THREADS = 2
+#: [choice] A small batch flown in the parent goes in this many threads (2: halves in order,
+#: each thread its own loaded C master, the GIL released in the C calls; where the flights do
+#: not go through the C master's batch, one thread).  One by default: in interleaved A/Bs at
+#: load 2-8 two threads cut the main thread's CPU by 17-26 % but not the process's (up 7-9 %
+#: in two triples of three) nor the search's wall (worse in two of three); they may pay on
+#: quiet cores, where the second core is idle while the parent flies a generation.
+HERE_THREADS = 1
 #: Cost of one law's flights [s] assumed until the first batch has measured it.
 FIRST_GUESS_FLIGHT = 0.02
 
@@ -173,7 +175,7 @@ class ProcessPool(Backend):
         self._apart: LawFlyer | None = None         # ... their second half, in a thread
         self._thread: ThreadPoolExecutor | None = None
         self.small_batch = SMALL_BATCH                # (0: every batch goes to the workers)
-        self.here_threads = HERE_THREADS              # (1: small batches in this thread only)
+        self.here_threads = HERE_THREADS              # (2: their second half in a thread)
         self._pool = self._new_pool()
         # [choice] the workers start now (forked at the first task), loading their FMUs while
         # this process prepares the search, not when the first batch waits for them
