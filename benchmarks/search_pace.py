@@ -13,7 +13,9 @@ skipped: ``--no-reference``) ``--repeat`` times and prints, per run and as media
 * the phase split (scaling, search, checkpoints, export, report), with the export's share of
   the whole command;
 * the main process's CPU seconds over the whole command (``getrusage``, the workers not
-  counted): the search's own work, less inflated by other jobs on the cores than its wall time.
+  counted): the search's own work, less inflated by other jobs on the cores than its wall time;
+  and its main thread's alone (``RUSAGE_THREAD``): the serial part, where the process's other
+  threads (the small batches' second flyer, the pool's threads, pycma's import) run beside it.
 
 Timings are measured, never asserted; the machine's load average is printed beside them.
 
@@ -50,6 +52,8 @@ _CPU_WRAPPER = ("import resource, sys\n"
                 "    rc = stop.code\n"
                 "r = resource.getrusage(resource.RUSAGE_SELF)\n"
                 "print('main-process-cpu', r.ru_utime + r.ru_stime, file=sys.stderr)\n"
+                "r = resource.getrusage(resource.RUSAGE_THREAD)\n"
+                "print('main-thread-cpu', r.ru_utime + r.ru_stime, file=sys.stderr)\n"
                 "sys.exit(rc)\n")
 
 
@@ -76,7 +80,10 @@ def run(out: Path, args, source: Path | None = None) -> dict:
     t, fl = s["timings"], s["flight_seconds"]
     cpu = [float(line.split()[1]) for line in res.stderr.splitlines()
            if line.startswith("main-process-cpu ")]
+    thread = [float(line.split()[1]) for line in res.stderr.splitlines()
+              if line.startswith("main-thread-cpu ")]
     return {"wall": wall, "load": load, "laws": s["simulated"], "main_cpu": cpu[-1],
+            "main_thread_cpu": thread[-1],
             "laws_per_s": s["simulated"] / t["search"], "own": fl["own"], "waited": fl["waited"],
             "ratio": t["search"] / max(fl["own"], 1e-9),
             "ceiling": s["simulated"] / max(fl["own"], 1e-9),
@@ -103,7 +110,7 @@ def main(argv=None) -> dict:
             if source is not None:
                 before.append(run(Path(tmp) / f"before{i}", args, source))
     keys = ("wall", "laws", "laws_per_s", "ceiling", "own", "waited", "ratio", "main_cpu",
-            "export_share") + PHASES
+            "main_thread_cpu", "export_share") + PHASES
     med = {k: statistics.median(r[k] for r in runs) for k in keys}
     out = {"runs": runs, "median": med, "workers": args.workers}
     if before:
@@ -124,7 +131,8 @@ def main(argv=None) -> dict:
               f"{r['laws_per_s']:.0f} laws/s (target >= 5000; the flights' ceiling "
               f"{r['ceiling']:.0f}); flights' own time "
               f"{r['own']:.1f} s, waited {r['waited']:.1f} s; search / own = {r['ratio']:.2f} "
-              f"(target <= 2); the main process's CPU {r['main_cpu']:.1f} s; export {r['export']:.1f} s ({100 * r['export_share']:.0f} % of "
+              f"(target <= 2); the main process's CPU {r['main_cpu']:.1f} s (its main "
+              f"thread {r['main_thread_cpu']:.1f} s); export {r['export']:.1f} s ({100 * r['export_share']:.0f} % of "
               f"{r['wall']:.1f} s); " + ", ".join(f"{k} {r[k]:.1f}" for k in PHASES
                                                     if k not in ("search", "export")))
     return out

@@ -30,7 +30,22 @@ _FMU_NAMES["at"] = {key: slice(a, a + n) for key, a, n in (
     ("scaling", 3 + len(_FMU_NAMES["psi"]) + NQ_MAX + 3 * NU_MAX, 2 * NX_MAX))}
 _FMU_NAMES["template"] = np.zeros(len(_FMU_NAMES["all"]))
 _FMU_NAMES["template"][_FMU_NAMES["at"]["scaling"].start::2] = 1.0
-_FMU_NAMES["upper_flat"] = _FMU_NAMES["upper"][0] * L_MAX + _FMU_NAMES["upper"][1]
+#: per matrix size L: (where in start_array's values, which entries of the L x L matrix
+#: raveled) of the upper triangle's entries that lie in the matrix, in the FMU's order
+_PSI_PLACES: dict = {}
+
+
+def _psi_places(size: int) -> tuple:
+    """``(places in the values array, flat indices in a size x size matrix)`` of the upper
+    triangle of :data:`L_MAX` restricted to the matrix (made once per size: start_array sets
+    these entries only, the template holds the zeros of the rest)."""
+    got = _PSI_PLACES.get(size)
+    if got is None:
+        i, j = _FMU_NAMES["upper"]
+        inside = (i < size) & (j < size)
+        got = _PSI_PLACES[size] = (np.flatnonzero(inside) + _FMU_NAMES["at"]["psi"].start,
+                                   i[inside] * size + j[inside])
+    return got
 
 
 class CapacityError(MatrixError):
@@ -61,9 +76,9 @@ def start_array(law) -> tuple:
     names, at = _FMU_NAMES, _FMU_NAMES["at"]
     v = names["template"].copy()          # zeros; bounds (0, 0, 0), scaling (1, 0) unused
     v[0], v[1], v[2] = law.nx, len(law.q), len(law.outputs)
-    full = np.zeros((L_MAX, L_MAX))
-    full[:law.size, :law.size] = law.psi
-    np.take(full.ravel(), names["upper_flat"], out=v[at["psi"]])
+    dest, src = _psi_places(law.size)
+    # the integers as floats exactly (|psi| < 2**31); the rest of the triangle: the template's 0
+    v[dest] = law.psi.ravel()[src].astype(float)
     q0 = at["q"].start
     v[q0:q0 + len(law.q)] = law.q
     b = at["bounds"].start

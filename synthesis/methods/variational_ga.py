@@ -204,8 +204,13 @@ class VariationalGA(FormSearch, Method):
             self._finish_screen(members)
             self._start_refine(screen=False)
         else:
+            # [choice] the population's objective rows and violations as arrays made once
+            # for the children of a generation and kept up to date by each replacement (the
+            # same values as ``F`` / ``CV`` made afresh: one row written in place), not
+            # rebuilt from the members twice per child and twice more per replacement
+            FC = (self.F, self.CV)
             for child in members:
-                self._insert(child)
+                self._insert(child, FC)
             self.generation += 1
             self._epoch_due = True
             front = self.F[self.lh == 0]
@@ -289,18 +294,26 @@ class VariationalGA(FormSearch, Method):
                 children.append(child)
         return children
 
-    def _replace(self, w: int, member: _Member) -> None:
-        """Member ``w`` becomes ``member``; the dominance counts follow incrementally."""
-        F, C, old = self.F, self.CV, self.pop[w]
+    def _replace(self, w: int, member: _Member, FC=None) -> None:
+        """Member ``w`` becomes ``member``; the dominance counts follow incrementally.
+        ``FC``: ``(F, CV)`` of the population as arrays, updated here in place (default:
+        made from the members)."""
+        F, C = (self.F, self.CV) if FC is None else FC
+        old = self.pop[w]
         dom_old = dominance_matrix([old.f], [old.cv], F, C)[0]
         dom_new = dominance_matrix([member.f], [member.cv], F, C)[0]
         dominated_by = dominance_matrix(F, C, [member.f], [member.cv])[:, 0]
         self.lh = self.lh - dom_old + dom_new
         self.pop[w] = member
         self.lh[w] = int(dominated_by.sum()) - int(dominated_by[w])
+        if FC is not None:
+            F[w], C[w] = member.f, member.cv
 
-    def _insert(self, child: _Member) -> None:
-        F, C, f = self.F, self.CV, child.f
+    def _insert(self, child: _Member, FC=None) -> None:
+        """Offer ``child`` to the population (``FC``: as :meth:`_replace`)."""
+        if FC is None:
+            FC = (self.F, self.CV)
+        (F, C), f = FC, child.f
         if np.any(np.all(F == f, axis=1) & (C == child.cv)):
             return                       # same objectives as a member: keep diversity
         lh_child = int(dominance_matrix(F, C, [f], [child.cv])[:, 0].sum())
@@ -321,7 +334,7 @@ class VariationalGA(FormSearch, Method):
             w = int(cand[np.argmin(crowding_distance(F[cand]))])
         else:
             w = int(cand[0])
-        self._replace(w, child)
+        self._replace(w, child, FC)
         self.stats["accepted"] = self.stats.get("accepted", 0) + 1
 
     # -- epoch ----------------------------------------------------------------------------

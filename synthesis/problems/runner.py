@@ -77,14 +77,19 @@ class Runner:
                 break
         return results
 
+    def batches(self, loop: Loop, problem) -> bool:
+        """Whether :meth:`batch_flights` flies ``problem``'s laws on ``loop`` (a loop with
+        ``run_many``, no racing, no recording): one C call a batch, the GIL released in it."""
+        return hasattr(loop, "run_many") and self.race is None and not problem.record
+
     def batch_flights(self, loop: Loop, problem, laws) -> list | None:
         """:meth:`flights` of each of ``laws`` in one call of the loop's ``run_many`` (the C
         master's batch): per law its flights, or the exception :meth:`flights` would raise (the
         first failing flight's, in the order of the initial states).  None where a batch does
         not apply: racing, recording, or a loop without ``run_many``."""
-        run_many = getattr(loop, "run_many", None)
-        if run_many is None or self.race is not None or problem.record:
+        if not self.batches(loop, problem):
             return None
+        run_many = loop.run_many
         states = problem.initial_states
         out, flights = [], []
         for law in laws:

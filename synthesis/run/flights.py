@@ -36,12 +36,18 @@ class LawFlyer:
     problem : SynthesisProblem
     plant, controller : str
         FMU files.
+    guard : callable
+        The context an FMU call runs in (default :func:`~synthesis.run.signals.critical`).
     """
 
     _alive: "weakref.WeakSet[LawFlyer]" = weakref.WeakSet()
 
-    def __init__(self, problem: SynthesisProblem, plant: str, controller: str):
+    def __init__(self, problem: SynthesisProblem, plant: str, controller: str,
+                 guard=critical):
         self.problem = problem
+        # the section an FMU call runs in: critical(), a counter of the main thread's; a
+        # flyer in a helper thread takes a null context (ProcessPool's small batches)
+        self.guard = guard
         self.fmus = (plant, controller)
         self.loop = None
         self.error = None
@@ -59,7 +65,7 @@ class LawFlyer:
         if self.loop is None:
             return None, self.error
         try:
-            with critical():
+            with self.guard():
                 return self.problem.fly(self.loop, law), None
         except Exception as exc:  # an FMU error costs this law only
             return None, _text(exc)
@@ -87,7 +93,7 @@ class LawFlyer:
         if self.loop is None or not hasattr(self.loop, "run_many"):
             return None
         problem, out = self.problem, []
-        with critical():
+        with self.guard():
             flown = problem.runner.batch_flights(self.loop, problem, laws)
             if flown is None:
                 return None
@@ -100,6 +106,11 @@ class LawFlyer:
                 except Exception as exc:  # as fly(): this law only
                     out.append((None, _text(exc)))
         return out
+
+    def batches(self) -> bool:
+        """Whether this flyer flies its laws in batches of the C master (one C call a batch,
+        the GIL released in it: another thread's flyer flies at the same time)."""
+        return self.loop is not None and self.problem.runner.batches(self.loop, self.problem)
 
     def fly_timed(self, laws) -> tuple:
         """``(results, seconds)``: the chunk's results and its compute time (the backends'

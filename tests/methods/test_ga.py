@@ -102,6 +102,26 @@ def test_same_seed_same_result_and_resume_from_state():
     assert a.rng.bit_generator.state == d.rng.bit_generator.state
 
 
+def test_children_inserted_on_kept_arrays_equal_the_arrays_made_per_child(monkeypatch):
+    # oracle: the same seeded run with each child's insertion making the population's arrays
+    # afresh from the members (the definition of F and CV), constraint violations included so
+    # that the kept violations are compared too -- bit for bit, replacements and all
+    def evaluate(laws):
+        F = zdt1(laws)
+        cv = np.abs(F[:, 0] - 0.3)         # (almost) never 0: ranks by violation
+        return Evaluation(F, cv, [{}] * len(F), len(F))
+
+    kept = RunLoop(_zdt_ga(3, 30), evaluate).run().method
+    insert = VariationalGA._insert
+    monkeypatch.setattr(VariationalGA, "_insert", lambda self, child, FC=None: insert(self, child))
+    fresh = RunLoop(_zdt_ga(3, 30), evaluate).run().method
+    assert kept.stats["accepted"] == fresh.stats["accepted"] > 100
+    assert np.array_equal(kept.F, fresh.F) and np.array_equal(kept.CV, fresh.CV)
+    assert kept.CV.any()                  # violations were there to keep up to date
+    assert np.array_equal(kept.lh, fresh.lh) and kept.history == fresh.history
+    assert kept.rng.bit_generator.state == fresh.rng.bit_generator.state
+
+
 def test_structure_variations_follow_the_rules():
     sc = StructureCodec(size=6, n_sources=3, unary=(1, 3), binary=(1, 2))
     psi = np.zeros((6, 6), dtype=int)
