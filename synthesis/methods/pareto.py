@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["dominates", "weakly_dominates", "dominance_matrix", "dominance_counts",
-           "non_dominated", "non_dominated_sort", "crowding_distance", "hypervolume_2d", "igd",
+           "non_dominated", "non_dominated_sort", "best_compromise", "crowding_distance", "hypervolume_2d", "igd",
            "ParetoArchive", "Target"]
 
 
@@ -72,6 +72,16 @@ def dominance_counts(F, cv=None) -> np.ndarray:
 def non_dominated(F, cv=None) -> np.ndarray:
     """Indices of the non-dominated rows of ``F``."""
     return np.flatnonzero(dominance_counts(F, cv) == 0)
+
+
+def best_compromise(F, lh) -> int:
+    """The row of ``F`` among the non-dominated ones (``lh == 0``) nearest the utopia point,
+    each objective scaled to the front's span (the lab's basis rule "compromise")."""
+    idx = np.flatnonzero(np.asarray(lh) == 0)
+    F = np.asarray(F)[idx]
+    lo, hi = F.min(axis=0), F.max(axis=0)
+    span = np.where(hi > lo, hi - lo, 1.0)
+    return int(idx[np.argmin(np.sqrt((((F - lo) / span) ** 2).sum(axis=1)))])
 
 
 def non_dominated_sort(F, cv=None) -> list[np.ndarray]:

@@ -33,8 +33,8 @@ from descent_fmus.synthesis.methods.encoding import (GrayCodec, StructureCodec, 
                                                      bits_text)
 from descent_fmus.synthesis.methods.form_search import FormSearch
 from descent_fmus.synthesis.methods.ga_config import GAConfig
-from descent_fmus.synthesis.methods.pareto import (Target, crowding_distance, dominance_counts,
-                                                   dominance_matrix)
+from descent_fmus.synthesis.methods.pareto import (Target, best_compromise, crowding_distance,
+                                                   dominance_counts, dominance_matrix)
 from descent_fmus.synthesis.methods.refinement import RefineConfig, Refinement
 
 __all__ = ["VariationalGA"]
@@ -338,14 +338,6 @@ class VariationalGA(FormSearch, Method):
         self.stats["accepted"] = self.stats.get("accepted", 0) + 1
 
     # -- epoch ----------------------------------------------------------------------------
-    def _best_compromise(self) -> int:
-        idx = np.flatnonzero(self.lh == 0)
-        F = self.F[idx]
-        lo, hi = F.min(axis=0), F.max(axis=0)
-        span = np.where(hi > lo, hi - lo, 1.0)
-        d = np.sqrt((((F - lo) / span) ** 2).sum(axis=1))
-        return int(idx[np.argmin(d)])
-
     def _new_basis(self) -> list:
         # basis_rule "target": the best law by the target becomes the basis (member 0, never
         # replaced), so the law the run reports stays in the population and its parameter
@@ -353,7 +345,7 @@ class VariationalGA(FormSearch, Method):
         # which drops the old basis even when it is the best law by the target)
         k = int(self.target.order(self.F, self.CV)[0]) \
             if self.cfg.basis_rule == "target" and self.target is not None \
-            else self._best_compromise()
+            else best_compromise(self.F, self.lh)
         best = self.pop[k]
         if self.target is not None:
             self._log_epoch(k)
@@ -441,12 +433,6 @@ class VariationalGA(FormSearch, Method):
         if self._basis_refining and self._pending is None:
             self._start_sweep()
         self._basis_refining = False
-
-    def _start_sweep(self) -> None:
-        """The neighbourhood sweep of the tuned basic law (``refine sweep``), pending."""
-        sweep = self._sweep_members()
-        if sweep:
-            self._pending = ("sweep", sweep)
 
     def _rescaled(self, law) -> None:
         """Decode every candidate with ``law``'s input coordinates from now on (see

@@ -7,8 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from descent_fmus.synthesis.methods.pareto import (ParetoArchive, crowding_distance, dominates,
-                                                   weakly_dominates)
+from descent_fmus.synthesis.methods.pareto import (ParetoArchive, best_compromise,
+                                                   crowding_distance, dominates, weakly_dominates)
 
 
 def _elementwise_add(items: list, cap: int, item, f, cv: float) -> tuple[bool, list]:
@@ -111,3 +111,14 @@ def test_an_empty_batch_changes_nothing():
     empty = ParetoArchive(cap=3)
     empty.add_many([], [], [])
     assert empty.items == []
+
+
+def test_best_compromise_is_the_front_member_nearest_the_utopia_point():
+    # closed form: the front (lh == 0) spans [0, 10] x [0, 1]; scaled, the rows are (0, 1),
+    # (1, 0), (0.4, 0.3) at distances 1, 1, 0.5 from the utopia point (0, 0); the dominated
+    # row 3 lies nearer still (0.1, 0.1 scaled) and is not eligible
+    F = np.array([[0.0, 1.0], [10.0, 0.0], [4.0, 0.3], [1.0, 0.1]])
+    assert best_compromise(F, [0, 0, 0, 2]) == 2
+    assert best_compromise(F, [0, 0, 0, 0]) == 3
+    # one front member: itself, whatever its values (a zero span is scaled by 1)
+    assert best_compromise(F, [1, 1, 0, 1]) == 2
