@@ -76,7 +76,8 @@ def run(fmus: Path, out: Path, cache: Path, args, source: Path | None = None,
     (``source``: the code of :func:`source_tree` instead of this checkout's; ``env``: the
     environment instead of this process's)."""
     cmd = [sys.executable, "-m", "descent_fmus.synthesis.cli.main", "synthesize", "reentry",
-           "--seed", str(args.seed), "--workers", str(args.workers), "--fmus", str(fmus),
+           *(["--seed", str(args.seed)] if args.seed is not None else []),
+           "--workers", str(args.workers), "--fmus", str(fmus),
            "--out", str(out), "--quiet", "--json"]
     if args.flights:
         cmd += ["--flights", str(args.flights)]
@@ -213,7 +214,8 @@ def main(argv=None) -> int:
     p.add_argument("--fmus", type=Path, default=None, help="FMU folder (default: fmus/)")
     p.add_argument("--flights", type=int, default=None,
                    help="flight budget (default: the problem's, 20 000)")
-    p.add_argument("--seed", type=int, default=1)
+    p.add_argument("--seed", type=int, default=None,
+                   help="default: the problem's, as README line 1's command runs it")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--pythonfmu", action="store_true",
                    help="also a run on the pythonfmu FMUs only (cold cache), first")
