@@ -197,14 +197,21 @@ class FormSearch:
         return out
 
     def _finish_sweep(self, members) -> None:
-        """The best flight of each swept form joins the population as a child does."""
+        """The best flight of each swept form joins the population as a child does; with
+        ``sweep_keep``, only that many forms, the best by the target (ties: the sweep's
+        order)."""
         best = {}
         for k, m in zip(self._sweep_k, members):
             if k not in best or self.target.better(m.f, best[k].f, m.cv, best[k].cv):
                 best[k] = m
-        for m in best.values():
+        forms = list(best.values())
+        keep = self.refine_cfg.sweep_keep
+        if keep and len(forms) > keep:
+            order = self.target.order(np.array([m.f for m in forms]), [m.cv for m in forms])
+            forms = [forms[int(i)] for i in order[:keep]]
+        for m in forms:
             self._insert(m)
-        self.stats["swept_forms"] = self.stats.get("swept_forms", 0) + len(best)
+        self.stats["swept_forms"] = self.stats.get("swept_forms", 0) + len(forms)
         self._sweep_k = []
 
     def _finish_screen(self, members) -> None:

@@ -108,6 +108,9 @@ class RefineConfig:
                             "skeleton) is flown this many times, its touched constants and "
                             "the others scaled as the screening does, and the best flight "
                             "of each joins the population (0 = off)", 0, 12)
+    sweep_keep: int = setting(0, "of the swept forms (`sweep`), only this many join the "
+                                 "population: the best by the target's value of their best "
+                                 "flight (0 = every one)", 0, 10_000)
     screen: int = setting(0, "new forms screened after every epoch, before the halving: "
                              "each gets `screen_evals` flights of a search over the scale of "
                              "the constants its variations touched (and of the others), and "

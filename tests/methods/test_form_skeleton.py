@@ -143,3 +143,37 @@ def test_the_sweep_flies_each_one_operation_neighbour_once_per_skeleton():
     assert np.array_equal(ga.matrix(best), CODEC.apply(BASIC.psi, [SSQRT]))
     # off (sweep = 0): no sweep phase, the same search as before
     assert RefineConfig().sweep == 0
+
+
+def test_sweep_keep_lets_only_the_best_swept_forms_join():
+    """``[refine] sweep_keep = 2``: of the 10 swept forms of the test above, only the two
+    whose best flight is lowest (the oracle: the toy values of the flights, grouped by form
+    here) are offered to the population; the ssqrt form at its closed-form optimum among them."""
+    from test_screen import _toy
+    from descent_fmus.synthesis.methods.ga_config import GAConfig
+    from descent_fmus.synthesis.methods.encoding import GrayCodec
+    from descent_fmus.synthesis.methods.pareto import Target
+    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
+    ga = VariationalGA(GrayCodec(3, 11, 31, -1024.0, 1024.0), BASIC.q, np.random.default_rng(7),
+                       GAConfig(population=16, crossovers=4, lchr=2, epoch=2),
+                       StructureCodec(24, 5, (1, 4, 10), (1, 2)), BASIC.psi,
+                       BASIC.with_structure, target=Target(0),
+                       refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8, sweep_keep=2),
+                       flights=0)
+    while ga.refinement.active or not ga.pop:
+        ga.tell(_toy([c.law for c in ga.ask()]))
+    members = ga._pending[1]
+    forms = list(ga._sweep_k)
+    values = _toy([ga.candidate(m).law for m in members])[:, 0]
+    offered = []
+    ga._insert = lambda m: offered.append(float(m.f[0]))
+    ga.tell(_toy([ga.candidate(m).law for m in members]))
+    best = {}
+    for k, v in zip(forms, values):
+        best[k] = min(v, best.get(k, np.inf))
+    assert len(best) == 10
+    assert sorted(offered) == sorted(best.values())[:2]
+    assert min(offered) == pytest.approx(0.5, abs=1e-12)       # the ssqrt form's optimum
+    assert ga.stats["swept_forms"] == 2
+    with pytest.raises(SettingError, match="refine.sweep_keep"):
+        RefineConfig(sweep_keep=-1)
