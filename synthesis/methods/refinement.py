@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from descent_fmus.synthesis.methods.cma import CMA, IPOP_SIGMA, IPOP_STALL
+from descent_fmus.synthesis.methods.cma import CMA, IPOP_STALL
 from descent_fmus.synthesis.methods.encoding import GrayCodec, bits_array, bits_text
 from descent_fmus.synthesis.methods.pareto import Target
 from descent_fmus.synthesis.methods.settings import check_settings, setting
@@ -68,6 +68,10 @@ class RefineConfig:
                                       "less than this share over 60 generations (0 = only "
                                       "after 60 generations without any better value)",
                                 0.0, 1.0)
+    step_restart: float = setting(0.0, "a refinement's CMA-ES makes an IPOP restart once its "
+                                       "step size has fallen below this share of the initial "
+                                       "one (0 = only after 60 generations without a better "
+                                       "value)", 0.0, 1.0)
     evals: int = setting(200, "CMA-ES evaluations per refined law after every epoch (0 = the "
                               "GA alone)", 0, 10_000_000)
     laws: int = setting(1, "laws refined after every epoch: the best by the target, distinct "
@@ -225,9 +229,11 @@ class Refinement:
 
     def new_cma(self, q, seed: int) -> CMA:
         p = self.codec
+        # x_map: what the Gray code can hold; an IPOP restart after IPOP_STALL generations
+        # without a better value, and (``step_restart``) once the step has collapsed
         return CMA(q, self.cfg.sigma, seed, popsize=self.cfg.popsize or None,
-                   bounds=(p.lo, p.hi - p.step), x_map=p.grid,   # what the Gray code can hold restart_sigma=IPOP_SIGMA,
-                   restart_stall=IPOP_STALL)
+                   bounds=(p.lo, p.hi - p.step), x_map=p.grid,
+                   restart_sigma=self.cfg.step_restart or None, restart_stall=IPOP_STALL)
 
     def start(self, picks, budget: int, rng: np.random.Generator, patience: int = 0,
               rungs=None) -> None:

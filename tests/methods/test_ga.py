@@ -462,3 +462,33 @@ def test_target_ranks_violations_first():
     assert t.best(F, cv) == 1 and t.best(F) == 3
     assert t.keys(F, cv)[3] == (0.3, 0.0)
     assert t.better(F[1], F[3], 0.0, 0.3) and not t.better(F[3], F[1], 0.3, 0.0)
+
+
+def test_refinement_cma_restarts_once_its_step_has_collapsed():
+    # refine step_restart (the rule's definition): a refinement's CMA-ES makes an IPOP restart
+    # (twice the population) at the first generation after which its step size is below
+    # step_restart x the initial one.  Oracle: the same search with the rule off (step_restart
+    # 0, the registered systems' recipe), flown in lockstep on a sphere (which keeps improving,
+    # so the 60-generation stall rule does not fire before it) -- the two fly the same candidates up to
+    # that generation, and the one with the rule off has not restarted there
+    from descent_fmus.synthesis.methods.refinement import Refinement
+    codec = GrayCodec(3, 11, 31, -1024.0, 1024.0)
+    star = np.array([0.7, -1.3, 2.1])
+    on = Refinement(codec, RefineConfig(step_restart=1e-3), Target(0)).new_cma([1.0, 1.0, 1.0], 5)
+    off = Refinement(codec, RefineConfig(), Target(0)).new_cma([1.0, 1.0, 1.0], 5)
+    assert RefineConfig().step_restart == 0.0
+    collapsed = None
+    for g in range(1, 400):
+        a, b = on.ask_rows(), off.ask_rows()
+        assert np.array_equal(a, b)
+        on.tell([float(np.sum((x - star) ** 2)) for x in a])
+        off.tell([float(np.sum((x - star) ** 2)) for x in b])
+        if off.sigma < 1e-3 * off.sigma0:
+            collapsed = g
+            assert on.restarts == 1 and on.popsize == 2 * off.popsize
+            assert off.restarts == 0 and off.stall < 60
+            break
+        assert on.restarts == 0
+    assert collapsed is not None and 20 < collapsed < 400
+    with pytest.raises(Exception, match="refine.step_restart"):
+        RefineConfig(step_restart=2.0)
