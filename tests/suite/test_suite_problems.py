@@ -364,3 +364,8 @@ def test_a_problem_file_runs_the_chosen_recipe_and_a_registered_system_its_own(b
     s1_file = load_problem_file(Path(__file__).resolve().parents[2] / "synthesis" / "systems"
                                 / "reentry" / "reentry.toml", fmu_dir=fmu_dir)
     assert s1_file.refine == get_problem("reentry").refine
+    # search16's choice: a file that says nothing of [refine] sweep sweeps the tuned basic
+    # law's neighbourhood with 8 flights a form; S1's registered recipe and its file do not
+    assert load("mintime-di", fmu_dir).refine.sweep == 8
+    assert RefineConfig().sweep == get_problem("reentry").refine.sweep == s1_file.refine.sweep == 0
+    assert load("reentry-second", fmu_dir).refine.sweep == 0
