@@ -66,9 +66,9 @@ def test_a_too_narrow_parameter_range_is_reported(hopper_dir, fmu_dir, tmp_path)
     shutil.copytree(hopper_dir / "native", tmp_path / "native")
     f = _edit(hopper_dir / "hopper.toml", tmp_path / "narrow.toml", "q_range = [-64.0, 64.0]",
               "q_range = [-2.0, 2.0]")
-    # (no sweep: its one-operation neighbours of the tuned basic law, e.g. a signed square
-    # root on h's path, land with gains inside the narrow range, so the best law would no
-    # longer be the linear one this test pushes against the range's edge)
+    # (no sweep: with it, a problem file's default, this run's best law is one of the tuned
+    # basic law's one-operation neighbours, whose parameters do not sit at the range's edge;
+    # the scenario here is the linear law pushed against it)
     problem = load_problem_file(f, fmu_dir=fmu_dir).tuned(**SMALL, seed=1, refine_basis=60,
                                                            refine_basis_patience=0,
                                                            refine_sweep=0)
