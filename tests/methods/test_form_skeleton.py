@@ -98,28 +98,32 @@ def test_distinct_is_checked():
         RefineConfig(distinct="formula")
 
 
+def _swept_ga(flights, **refine):
+    """A GA on the toy objective of the screening tests with the sweep on (``refine``: more
+    RefineConfig settings) and a flight budget (0: none), flown to the end of its basis
+    search."""
+    from test_screen import _toy
+    from descent_fmus.synthesis.methods.ga_config import GAConfig
+    from descent_fmus.synthesis.methods.encoding import GrayCodec
+    from descent_fmus.synthesis.methods.pareto import Target
+    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
+    ga = VariationalGA(GrayCodec(3, 11, 31, -1024.0, 1024.0), BASIC.q, np.random.default_rng(7),
+                       GAConfig(population=16, crossovers=4, lchr=2, epoch=2),
+                       StructureCodec(24, 5, (1, 4, 10), (1, 2)), BASIC.psi,
+                       BASIC.with_structure, target=Target(0),
+                       refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8, **refine),
+                       flights=flights)
+    while ga.refinement.active or not ga.pop:     # the initial population, the basis
+        ga.tell(_toy([c.law for c in ga.ask()]))
+    return ga
+
+
 def test_the_sweep_flies_each_one_operation_neighbour_once_per_skeleton():
     """The neighbourhood sweep (``[refine] sweep``) on the toy objective of the screening
     tests: the ssqrt form's closed-form best q1 is 16 x the inherited -20, the third pair of
     SCREEN_FACTORS."""
     from test_screen import Q1_STAR, _toy
-    from descent_fmus.synthesis.methods.ga_config import GAConfig
-    from descent_fmus.synthesis.methods.encoding import GrayCodec
-    from descent_fmus.synthesis.methods.pareto import Target
-    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
-    def run(flights):
-        """A GA with a flight budget (0: none), flown to the end of its basis search."""
-        ga = VariationalGA(GrayCodec(3, 11, 31, -1024.0, 1024.0), BASIC.q,
-                           np.random.default_rng(7),
-                           GAConfig(population=16, crossovers=4, lchr=2, epoch=2),
-                           StructureCodec(24, 5, (1, 4, 10), (1, 2)), BASIC.psi,
-                           BASIC.with_structure, target=Target(0),
-                           refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8),
-                           flights=flights)
-        while ga.refinement.active or not ga.pop:     # the initial population, the basis
-            ga.tell(_toy([c.law for c in ga.ask()]))
-        return ga
-
+    run = _swept_ga
     # an epoch is 2 generations x 4 crossovers x 4 children + the halving's 4 x 10 + 2 x 10
     # + 20 = 112 flights: a budget that leaves less after the sweep's 80 flies none of it
     ga = run(flights=200)           # (room for the basis search to stop at its budget)
@@ -150,24 +154,14 @@ def test_sweep_keep_lets_only_the_best_swept_forms_join():
     whose best flight is lowest (the oracle: the toy values of the flights, grouped by form
     here) are offered to the population; the ssqrt form at its closed-form optimum among them."""
     from test_screen import _toy
-    from descent_fmus.synthesis.methods.ga_config import GAConfig
-    from descent_fmus.synthesis.methods.encoding import GrayCodec
-    from descent_fmus.synthesis.methods.pareto import Target
-    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
-    ga = VariationalGA(GrayCodec(3, 11, 31, -1024.0, 1024.0), BASIC.q, np.random.default_rng(7),
-                       GAConfig(population=16, crossovers=4, lchr=2, epoch=2),
-                       StructureCodec(24, 5, (1, 4, 10), (1, 2)), BASIC.psi,
-                       BASIC.with_structure, target=Target(0),
-                       refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8, sweep_keep=2),
-                       flights=0)
-    while ga.refinement.active or not ga.pop:
-        ga.tell(_toy([c.law for c in ga.ask()]))
+    ga = _swept_ga(0, sweep_keep=2)
     members = ga._pending[1]
     forms = list(ga._sweep_k)
-    values = _toy([ga.candidate(m).law for m in members])[:, 0]
+    F = _toy([ga.candidate(m).law for m in members])
+    values = F[:, 0].copy()
     offered = []
     ga._insert = lambda m: offered.append(float(m.f[0]))
-    ga.tell(_toy([ga.candidate(m).law for m in members]))
+    ga.tell(F)
     best = {}
     for k, v in zip(forms, values):
         best[k] = min(v, best.get(k, np.inf))

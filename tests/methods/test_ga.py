@@ -490,5 +490,6 @@ def test_refinement_cma_restarts_once_its_step_has_collapsed():
             break
         assert on.restarts == 0
     assert collapsed is not None and 20 < collapsed < 400
-    with pytest.raises(Exception, match="refine.step_restart"):
+    from descent_fmus.synthesis.methods.settings import SettingError
+    with pytest.raises(SettingError, match="refine.step_restart"):
         RefineConfig(step_restart=2.0)
