@@ -134,9 +134,11 @@ def run_export_law(args) -> int:
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     paths = {k: str(out / Path(v).relative_to(tmp)) for k, v in files.items()
-             if k not in ("law_fmu", "note")}
+             if k not in ("law_fmu", "note", "closed_loop_plant")}
     r = law.readable()
     summary = dict(paths, law_fmu=kind, note=note, readable=r.to_dict(), out=str(out))
+    if "closed_loop_plant" in files:
+        summary["closed_loop_plant"] = files["closed_loop_plant"]
     lines = [f"law ({kind} FMU) in {out}:"] + [f"  {line}" for line in r.lines()]
     lines.append(f"  files: {', '.join(sorted(Path(v).name for v in paths.values()))}")
     emit(args, summary, "\n".join(lines))

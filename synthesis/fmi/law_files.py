@@ -315,7 +315,8 @@ def export_law_files(law, dest, law_fmu: str = "auto", fmu_dir=None,
     -------
     dict
         Paths (``law_json``, ``law_h``, ``law_c``, ``controller_fmu`` and, with ``closed_loop``,
-        ``closed_loop_fmu``, ``ssp``), ``law_fmu`` ("native" or "python") and ``note`` (why not
+        ``closed_loop_fmu``, ``ssp``), ``closed_loop_plant`` ("native": the plant's native twin,
+        where built, or "pythonfmu"), ``law_fmu`` ("native" or "python") and ``note`` (why not
         native, if so).
 
     Raises
@@ -382,13 +383,19 @@ def _python_law_fmu(law, dest: Path, fmu_dir, problem, description: str) -> Path
 def _closed_loop_files(problem, fmu_dir, ctrl: Path, dest: Path, description: str) -> dict:
     """``<wiring name>.fmu`` (container: the problem's plant + the law FMU ``ctrl``) and
     ``<wiring name>.ssp`` in ``dest``; the plant parameters the problem sets per initial state
-    stay parameters of the container.  Returns their paths (``closed_loop_fmu``, ``ssp``)."""
+    stay parameters of the container.  The plant is its native twin where one is built
+    (``<fmu_dir>/native/<plant>.fmu``, checked bit for bit against the pythonfmu plant when it
+    was built), else the pythonfmu plant.  Returns the paths (``closed_loop_fmu``, ``ssp``) and
+    ``closed_loop_plant`` ("native" or "pythonfmu": the plant inside)."""
     from descent_fmus.synthesis.fmi.containers import closed_loop_fmu, write_ssp
+    from descent_fmus.synthesis.fmi.native_loop import NATIVE_DIR, twin_of
     w = problem.wiring
     plant_fmu = problem.fmu_paths(fmu_dir)[0]
+    plant_fmu = twin_of(plant_fmu, w.plant) or plant_fmu
     wl = replace(w, description=description[:2000])
     names = list(dict.fromkeys(k for s in problem.initial_states for k in s))
     plant_params = tuple((n, "plant", n) for n in names)
     return {"closed_loop_fmu": str(closed_loop_fmu(wl, plant_fmu, ctrl, dest / f"{w.name}.fmu",
                                                    parameters=plant_params)),
-            "ssp": str(write_ssp(wl, plant_fmu, ctrl, dest / f"{w.name}.ssp"))}
+            "ssp": str(write_ssp(wl, plant_fmu, ctrl, dest / f"{w.name}.ssp")),
+            "closed_loop_plant": "native" if plant_fmu.parent.name == NATIVE_DIR else "pythonfmu"}

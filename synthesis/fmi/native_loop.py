@@ -32,7 +32,8 @@ from descent_fmus.synthesis.fmi.slave import FMUError
 from descent_fmus.synthesis.fmi.container_loop import ContainerLoop
 from descent_fmus.synthesis.fmi.start_values import StartValues
 
-__all__ = ["NativeContainerLoop", "Layouts", "native_fmus", "missing_twins", "NATIVE_DIR"]
+__all__ = ["NativeContainerLoop", "Layouts", "native_fmus", "twin_of", "missing_twins",
+           "NATIVE_DIR"]
 
 #: The folder of the native FMUs inside the FMU folder.
 NATIVE_DIR = "native"
@@ -51,14 +52,16 @@ def native_fmus(wiring: Wiring, plant_fmu, controller_fmu) -> tuple[Path, Path] 
     The twins are ``<dir>/native/<identifier>.fmu`` beside the given FMUs, which must be the
     wiring's own (``<dir>/<identifier>.fmu``): a problem flying another FMU (an exported
     controller with other defaults, a user's plant) has no twin."""
-    out = []
-    for path, ident in ((Path(plant_fmu), wiring.plant), (Path(controller_fmu),
-                                                           wiring.controller)):
-        twin = path.parent / NATIVE_DIR / f"{ident}.fmu"
-        if path.stem != ident or not twin.is_file():
-            return None
-        out.append(twin)
-    return out[0], out[1]
+    out = [twin_of(plant_fmu, wiring.plant), twin_of(controller_fmu, wiring.controller)]
+    return None if None in out else (out[0], out[1])
+
+
+def twin_of(fmu, identifier: str) -> Path | None:
+    """The native twin ``<dir>/native/<identifier>.fmu`` of the FMU ``<dir>/<identifier>.fmu``,
+    or None (no twin, or ``fmu`` is not named after ``identifier``)."""
+    fmu = Path(fmu)
+    twin = fmu.parent / NATIVE_DIR / f"{identifier}.fmu"
+    return twin if fmu.stem == identifier and twin.is_file() else None
 
 
 def missing_twins(wiring: Wiring, plant_fmu, controller_fmu) -> str | None:

@@ -19,6 +19,7 @@ import math
 import os
 import re
 import tomllib
+import zipfile
 from pathlib import Path
 
 import pytest
@@ -156,6 +157,17 @@ def test_tutorial_commands_run_as_written(tutorial_runs):
     for page, results in runs.items():
         assert results, f"{page}: no command block"
         assert not _failures(results), page + ":\n" + "\n".join(_failures(results))
+
+
+@pytest.mark.slow
+def test_tutorial_closed_loop_carries_the_native_twin(tutorial_runs):
+    # the page says the exported closed loop carries the hopper's native twin, no Python: the
+    # archive the tutorial's export-law wrote holds the twin's binary and no pythonfmu binary
+    where, _ = tutorial_runs
+    with zipfile.ZipFile(where / "runs" / "hopper" / "law0" / "hopperClosedLoop.fmu") as z:
+        names = z.namelist()
+    assert "resources/Hopper/binaries/linux64/Hopper.so" in names
+    assert not [n for n in names if "pythonfmu" in n or n.endswith(".py")]
 
 
 def test_tutorial_problem_file_block_is_the_file():

@@ -170,9 +170,9 @@ def reentry_export(fmu_dir, tmp_path_factory):
 
 
 def test_closed_loop_reproduces_the_pareto_row(reentry_export, fmu_dir):
-    # the Pareto row of a law is what the evaluator computes (pythonfmu plant + pythonfmu
-    # controller); the exported closed loop (pythonfmu plant + native law) under fmpy simulate
-    # gives the same J1 and miss (1e-9), and so does the Python master with the native law
+    # the Pareto row of a law is what the evaluator computes; the exported closed loop (the
+    # plant's native twin + the native law) under fmpy simulate gives the same J1 and miss
+    # (1e-9), and so does the Python master with the pythonfmu plant and the native law
     law, files = reentry_export
     problem = get_problem("reentry")
     with Evaluator(problem, fmu_dir) as ev:
@@ -203,6 +203,26 @@ def test_two_output_law_reproduces_its_recorded_numbers(fmu_dir, tmp_path):
         results = [loop.run(s, record=bool(problem.record)) for s in problem.initial_states]
     (j1, j2) = problem.evaluate(results).f
     assert (j1, j2) == pytest.approx((meta["J1"], meta["J2"]), rel=1e-9)
+
+
+def test_closed_loop_carries_the_plants_native_twin(reentry_export, fmu_dir, tmp_path):
+    # a plant with a native twin (fmus/native/Reentry.fmu) goes into the exported closed loop as
+    # that twin: no pythonfmu binary and no Python source in the container; without the twin
+    # (a folder holding only the pythonfmu plant) the pythonfmu plant goes in
+    law, files = reentry_export
+    assert files["closed_loop_plant"] == "native"
+    with zipfile.ZipFile(files["closed_loop_fmu"]) as z:
+        names = z.namelist()
+    assert "resources/Reentry/binaries/linux64/Reentry.so" in names
+    assert not [n for n in names if "pythonfmu" in n or n.endswith(".py")]
+    alone = tmp_path / "fmus"
+    alone.mkdir()
+    shutil.copy(fmu_dir / "Reentry.fmu", alone / "Reentry.fmu")
+    out = export_law_files(law, tmp_path / "law", law_fmu="native", fmu_dir=alone,
+                           problem=get_problem("reentry"), closed_loop=True)
+    assert out["closed_loop_plant"] == "pythonfmu"
+    with zipfile.ZipFile(out["closed_loop_fmu"]) as z:
+        assert "resources/Reentry/binaries/linux64/Reentry.pythonfmu.so" in z.namelist()
 
 
 def test_no_python_in_the_binary(reentry_export):
