@@ -125,6 +125,11 @@ class RefineConfig:
     screen_evals: int = setting(8, "flights per screened form (`screen`): the touched "
                                    "constants and the others times the first of a fixed list "
                                    "of factor pairs", 1, 12)
+    polish: float = setting(0.0, "the last share of the flight budget goes to the best law "
+                                 "by the target: the structure search stops when only this "
+                                 "share of the flights is left (after a running refinement "
+                                 "ends) and a fresh CMA-ES on that law's parameters flies the "
+                                 "rest (0 = off)", 0.0, 0.9)
     rest: int = setting(0, "when the flights left after an epoch's refinement cannot hold "
                            "one more epoch, the refinement's winner goes on with them (its "
                            "last rung takes the rest; 0 = the GA goes on; with `forms` only)",

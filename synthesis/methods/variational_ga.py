@@ -118,6 +118,7 @@ class VariationalGA(FormSearch, Method):
         self._pending = ("init", self._initial_members())
         self.rescale = None
         self._basis_refining = False
+        self._polished = False         # the polish of the best law has started (``polish``)
         self._template = None          # the decoding law after a rescale (its dict)
         self._origin = None            # (matrix, bits) of the tuned basic solution
         self._elite = None             # islands: the run's best law while an island runs
@@ -162,6 +163,8 @@ class VariationalGA(FormSearch, Method):
         if self._pending is None and self._refine_due and not self.refinement.active:
             self._refine_due = False
             self._start_refine()
+        if self._pending is None and self._polish_due():
+            self._start_polish()
         if self._pending is None and self.refinement is not None and self.refinement.active:
             members = [_Member(list(self.pop[k].variations), bits)
                        for k, bits in self.refinement.ask()]
@@ -421,6 +424,27 @@ class VariationalGA(FormSearch, Method):
             budget = rungs[-1] = rungs[-1] + self._rest(len(starts))
         self.refinement.start(starts, budget, self.rng, patience, rungs)
 
+    def _polish_due(self) -> bool:
+        """Whether the polish (``polish``) starts now: it has not, no refinement runs, the
+        structure search has begun (the basis search is over) and only the ``polish`` share of
+        the flight budget is left."""
+        share = self.refine_cfg.polish if self.refinement is not None else 0.0
+        if not share or self._polished or not self.flights or self.generation == 0 \
+                or self.refinement.active or self.target is None:
+            return False
+        return self.flights - self.evaluations <= share * self.flights
+
+    def _start_polish(self) -> None:
+        """The best law by the target gets a fresh CMA-ES of its own on its parameters, with
+        every flight left (the run's budget ends it)."""
+        self._polished, self._refine_due = True, False
+        k = int(self.target.order(self.F, self.CV)[0])
+        m = self.pop[k]
+        left = self.flights - self.evaluations
+        self.refinement.start([(k, m, self._structure_key(m), m.bits.copy())], left, self.rng)
+        self.stats["polish"] = {"member": k, "at": int(self.evaluations), "flights": int(left),
+                                "from": m.f.tolist()}
+
     def _finish_refine(self) -> None:
         """The refined parameters replace those of the members they started from."""
         for k, bits, f, cv in self.refinement.finish(self.pop, self._structure_key):
@@ -465,6 +489,7 @@ class VariationalGA(FormSearch, Method):
             "refine_due": self._refine_due,
             "refine": None if self.refinement is None else self.refinement.state(),
             "template": self._template, "basis_refining": self._basis_refining,
+            **({"polished": True} if self._polished else {}),
             "stats": self.stats, **self._island_state(),
             **({"tuned_skeletons": sorted(self.tuned_skeletons)} if self.tuned_skeletons
                else {}),
@@ -487,6 +512,7 @@ class VariationalGA(FormSearch, Method):
             self.refinement.load_state(st.get("refine"), self.q0)
         self._template = st.get("template")
         self._basis_refining = st.get("basis_refining", False)
+        self._polished = st.get("polished", False)
         self.stats = dict(st.get("stats", {}))
         self._tuned_skeletons = set(st.get("tuned_skeletons", []))
         self._load_island_state(st)

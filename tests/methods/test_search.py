@@ -289,6 +289,99 @@ def test_children_with_the_basis_parameters():
         assert children and all(same) == all_basis
 
 
+# -- the polish: the last share of the flights on the best law ---------------------------------
+def _bowl(psi0):
+    """Target objective: the squared distance of the law's parameters from a point off the
+    Gray grid (closed form: its minimum 0 at Q_STAR), 1 more for any matrix but the basis."""
+    def objectives(laws):
+        F = []
+        for law in laws:
+            q = np.asarray(law.q, float)
+            f = float(np.sum((q - Q_STAR[:len(q)]) ** 2))
+            F.append((f + (0.0 if np.array_equal(law.psi, psi0) else 1.0), float(np.sum(q * q))))
+        return np.array(F)
+    return objectives
+
+
+Q_STAR = np.array([0.3712, -2.7109, 1.1351])
+
+
+def test_the_polish_flies_the_last_share_on_the_best_law():
+    # refine polish = 0.2 of 1 000 flights: once 200 or fewer are left (checked after each
+    # generation), the GA makes no more children and a fresh CMA-ES on the best law by the
+    # target flies the rest.  Oracle: the same seeded run with polish = 0 (the GA's bit flips
+    # to the end) and the bowl's closed-form minimum 0
+    from descent_fmus.synthesis.methods.pareto import ParetoArchive
+    from descent_fmus.synthesis.run.evaluation import Evaluation
+    from descent_fmus.synthesis.run.loop import RunLoop
+
+    def run(polish, flights=1000):
+        ga, psi0 = _stall_ga(7, None)
+        ga.refine_cfg = RefineConfig(basis=0, evals=0, polish=polish)
+        ga.flights, objectives = flights, _bowl(psi0)
+
+        def evaluate(laws):
+            F = objectives(laws)
+            return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
+        loop = RunLoop(ga, evaluate, ParetoArchive(), flights=flights).run()
+        return ga, loop
+
+    ga, loop = run(0.2)
+    polish = ga.stats["polish"]
+    # it starts at the first generation's end with 200 or fewer left (a generation is at
+    # most 16 children: 4 crossovers x 4), from the population's best law at that moment;
+    # basis = evals = 0, so every CMA-ES flight is the polish's: the rest of the budget, the
+    # last generation of 6 (2 parameters: 4 + 3 ln 2, pycma's default) past it at most
+    assert 200 - 16 < polish["flights"] <= 200 and polish["at"] + polish["flights"] == 1000
+    assert polish["flights"] <= ga.stats["refine"] < polish["flights"] + 6
+    best = float(ga.F[:, 0].min())
+    off, _ = run(0.0)
+    assert "polish" not in off.stats and "refine" not in off.stats
+    # the polish takes the best law from its value at the start down by a factor of 10 or
+    # more, and below the GA's own end (polish = 0) by as much
+    assert best <= 0.1 * polish["from"][0]
+    assert best <= 0.1 * float(off.F[:, 0].min())
+
+
+def test_a_checkpoint_in_the_polish_resumes_to_the_same_end():
+    # oracle: the uninterrupted run (the same seed): a JSON checkpoint taken at a boundary
+    # during the polish, loaded into a new GA, ends on the same population
+    from descent_fmus.synthesis.methods.pareto import ParetoArchive
+    from descent_fmus.synthesis.run.evaluation import Evaluation
+    from descent_fmus.synthesis.run.loop import RunLoop
+
+    def ga_and_loop(state=None, done=0):
+        ga, psi0 = _stall_ga(7, None)
+        ga.refine_cfg = RefineConfig(basis=0, evals=0, polish=0.2)
+        ga.refinement.cfg = ga.refine_cfg
+        ga.flights, objectives = 1000, _bowl(psi0)
+        if state is not None:
+            ga.load_state(state)
+
+        def evaluate(laws):
+            F = objectives(laws)
+            return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
+        return ga, RunLoop(ga, evaluate, ParetoArchive(), flights=1000, flights_done=done)
+
+    whole, loop = ga_and_loop()
+    loop.run()
+    ga, loop = ga_and_loop()
+    while not (ga.at_boundary() and "polish" in ga.stats and ga.evaluations >= 900):
+        loop.step()
+    state = json.loads(json.dumps(ga.state()))
+    resumed, loop2 = ga_and_loop(state, loop.flights)
+    loop2.run()
+    assert state["polished"] and np.array_equal(resumed.F, whole.F)
+    assert resumed.evaluations == whole.evaluations
+
+
+def test_polish_setting_is_checked():
+    from descent_fmus.synthesis.methods.settings import SettingError
+    assert RefineConfig().polish == 0.0
+    with pytest.raises(SettingError, match="refine.polish"):
+        RefineConfig(polish=1.5)
+
+
 # -- the last epoch's winner takes the rest; fresh starts of new forms ----------------------------
 def test_the_last_refinement_winner_takes_the_flights_left():
     # the GA's sizes: an epoch is 5 generations x 4 crossovers x 4 children = 80 children, and
