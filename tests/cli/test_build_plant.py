@@ -140,6 +140,22 @@ def test_the_pythonfmu_fmu_is_the_closed_form_and_the_twin_is_it_bitwise(built):
         assert out["py"][name].tobytes() == out["c"][name].tobytes(), name
 
 
+def test_a_description_ending_in_a_bracket_that_is_no_unit_builds(tmp_path):
+    # a user described an output as "..., in [-inf, inf]": the bracket is text, not a unit
+    # (the build failed on it, "cannot read unit factor"); both FMUs are built and valid, the
+    # output has no unit and its description as written, the other units stay
+    body = SPINNER.replace('"angle / 2 pi [1]"', '"angle / 2 pi, in [-inf, inf]"')
+    assert body != SPINNER
+    r = build_plant(spinner(tmp_path, body=body), tmp_path / "out")
+    assert r["check"]["equal"] and all(v == [] for v in r["validate"].values())
+    from fmpy import read_model_description
+    for path in (r["pythonfmu"], r["native"]):
+        v = {x.name: x for x in read_model_description(path).modelVariables}
+        assert v["turns"].unit is None
+        assert v["turns"].description == "angle / 2 pi, in [-inf, inf]"
+        assert v["w"].unit == "rad/s" and v["u"].unit == "1/s2"
+
+
 def test_the_check_reports_a_difference(built, tmp_path):
     # an FMU of another definition (a different default rate) is not the twin: the check says
     # where the flights first differ

@@ -43,6 +43,13 @@ def test_spellings():
     assert unit_of_description("a plain description") is None
     with pytest.raises(UnitError, match="unknown unit symbol 'furlong'"):
         base_unit("furlong/s")
+    # a bracket that is not a unit is text: no unit (a user's plant described its input as
+    # "force, clipped to [-2, 2]" and its build failed on it); strict names it
+    assert unit_of_description("force, clipped to [-2, 2]") is None
+    assert unit_of_description("speed [furlong/s]") is None
+    with pytest.raises(UnitError, match=r"clipped to \[-2, 2\].*'-2,'"):
+        unit_of_description("force, clipped to [-2, 2]", strict=True)
+    assert unit_of_description("speed [N m/s]", strict=True) == "N.m/s"
 
 
 def _variables(path):
@@ -61,7 +68,7 @@ def test_every_variable_with_a_unit_carries_it(fmu_dir):
     for path in fmus:
         svs, defs = _variables(path)
         for name, kind, description in svs:
-            unit = unit_of_description(description)
+            unit = unit_of_description(description, strict=True)    # no misspelt unit
             if unit is None or kind.tag != "Real":     # FMI 2.0: only Real has a unit
                 continue
             assert kind.get("unit") == unit, f"{path.name}: {name}"

@@ -58,12 +58,25 @@ def normalise(unit: str) -> str:
     return re.sub(r"\s*\.\s*|\s+", ".", unit.strip())
 
 
-def unit_of_description(description: str | None) -> str | None:
-    """The unit in brackets at the end of a variable's description (normalised), or None."""
+def unit_of_description(description: str | None, strict: bool = False) -> str | None:
+    """The unit in brackets at the end of a variable's description (normalised), or None.
+
+    A bracket that does not read as a unit (``"force, clipped to [-2, 2]"``) is text, not a
+    unit: None, or with ``strict`` a :class:`UnitError` naming it (the package's own FMUs are
+    checked that way, so a misspelt unit of theirs cannot pass as text)."""
     if not description:
         return None
     m = _BRACKET.search(description)
-    return normalise(m.group(1)) if m else None
+    if m is None:
+        return None
+    unit = normalise(m.group(1))
+    try:
+        base_unit(unit)
+    except UnitError as exc:
+        if strict:
+            raise UnitError(f"description {description!r}: {exc}") from None
+        return None
+    return unit
 
 
 def _factors(part: str):
