@@ -84,6 +84,10 @@ class GAConfig:
                                         "arc (an added arc whose input is scaled by an unused "
                                         "constant, which starts at 0: the child starts as its "
                                         "parent; 0 = off)", 0.0, 1.0)
+    arc_ops: int = setting(0, "a random variation that changes an arc's operation picks one "
+                              "of the member's arcs (1), not any pair of nodes, where most "
+                              "pairs have no arc and the variation does nothing (0: as drawn)",
+                           0, 1)
 
     def __post_init__(self):
         check_settings(self, "ga.")

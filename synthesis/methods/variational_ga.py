@@ -263,10 +263,23 @@ class VariationalGA(FormSearch, Method):
     def _mutate(self, m: _Member, bits: bool = True) -> None:
         if self.rng.random() < self.cfg.p_mutation:
             if self._lchr:
-                m.variations[int(self.rng.integers(0, self._lchr))] = \
-                    self.structure.random(self.rng)
+                m.variations[int(self.rng.integers(0, self._lchr))] = self._variation(m)
             if bits:
                 m.bits[int(self.rng.integers(0, self.params.n_bits))] ^= 1
+
+    def _variation(self, m: _Member) -> tuple:
+        """A random structure variation for member ``m``; with ``arc_ops``, one that changes an
+        arc's operation (kind 0) is put on one of ``m``'s arcs, drawn uniformly (off: as
+        drawn, as before the setting existed)."""
+        v = self.structure.random(self.rng)
+        if self.cfg.arc_ops and v[0] == 0:
+            psi = self.matrix(m)
+            n = self.structure.n_sources
+            i, j = np.nonzero(np.triu(psi[:, n:], 1 - n))
+            if len(i):
+                k = int(self.rng.integers(0, len(i)))
+                v = (0, int(i[k]), int(j[k]) + n, v[3])
+        return v
 
     def _children(self) -> list:
         rng, cfg = self.rng, self.cfg

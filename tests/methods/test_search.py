@@ -289,6 +289,35 @@ def test_children_with_the_basis_parameters():
         assert children and all(same) == all_basis
 
 
+def test_arc_ops_puts_an_operation_change_on_an_existing_arc():
+    # ga.arc_ops = 1: a random variation of kind 0 (change an arc's unary operation) lands on
+    # one of the member's arcs, so it changes the law unless it draws the arc's own operation;
+    # off, the draws are the structure codec's own, bit for bit (oracle: the codec's random()
+    # from the same seed), and of its kind-0 draws most hit a pair with no arc (a no-op)
+    from descent_fmus.synthesis.methods.ga_config import GAConfig
+    ga, psi0 = _stall_ga(11, 10)
+    ga.tell(_stalled_objectives(psi0)([c.law for c in ga.ask()]))    # initial population
+    m = ga.pop[0]
+    psi = ga.matrix(m)
+    rng = np.random.default_rng(3)
+    ga.rng = np.random.default_rng(3)
+    off = [ga._variation(m) for _ in range(400)]
+    assert off == [ga.structure.random(rng) for _ in range(400)]
+    kind0 = [v for v in off if v[0] == 0]
+    assert sum(psi[i, j] == 0 for _, i, j, _ in kind0) > 0.5 * len(kind0)
+    ga.cfg = dataclasses.replace(ga.cfg, arc_ops=1)
+    on = [ga._variation(m) for _ in range(400)]
+    kind0 = [v for v in on if v[0] == 0]
+    assert len(kind0) > 50
+    assert all(psi[i, j] != 0 and i < j and j >= ga.structure.n_sources for _, i, j, _ in kind0)
+    changed = [not np.array_equal(ga.structure.apply(psi, [v]), psi) for v in kind0]
+    assert all(c or psi[v[1], v[2]] == v[3] for c, v in zip(changed, kind0))
+    assert sum(changed) > 0.8 * len(kind0)
+    from descent_fmus.synthesis.methods.settings import SettingError
+    with pytest.raises(SettingError, match="ga.arc_ops"):
+        GAConfig(arc_ops=2)
+
+
 # -- the polish: the last share of the flights on the best law ---------------------------------
 def _bowl(psi0):
     """Target objective: the squared distance of the law's parameters from a point off the
