@@ -15,6 +15,7 @@ from __future__ import annotations
 import functools
 import json
 import shutil
+import sys
 import tempfile
 import zipfile
 from pathlib import Path
@@ -110,8 +111,17 @@ def build_bundle(module: str, cls: str, modules, dest_dir: Path, extra=()) -> Pa
         script.write_text(entry_script(module, cls))
         for f, name in extra:               # beside the entry: importable when pythonfmu builds
             shutil.copy(f, script.parent / name)
-        fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg] + [
-            script.parent / name for _, name in extra]))
+        # the entry imports them by name: a module of that name imported by an earlier build
+        # in this process (another file, or this file before an edit) must not stand in
+        fresh = [Path(name).stem for _, name in extra if name.endswith(".py")]
+        for name in fresh:
+            sys.modules.pop(name, None)
+        try:
+            fmu = Path(FmuBuilder.build_FMU(script, dest=Path(dest_dir), project_files=[pkg] + [
+                script.parent / name for _, name in extra]))
+        finally:
+            for name in fresh:
+                sys.modules.pop(name, None)
     return add_status_wrapper(add_units(fmu))
 
 

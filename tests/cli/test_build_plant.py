@@ -140,6 +140,19 @@ def test_the_pythonfmu_fmu_is_the_closed_form_and_the_twin_is_it_bitwise(built):
         assert out["py"][name].tobytes() == out["c"][name].tobytes(), name
 
 
+def test_a_rebuild_after_an_edit_builds_the_edit(tmp_path):
+    # one process, one plant file built, edited (another default w0) and built again: both
+    # FMUs carry the edited default (oracle: the file's text).  The pythonfmu build imported
+    # the plant's module by name, and a module of that name from the first build stood in
+    from fmpy import read_model_description
+    for w0 in (3.0, 5.5):
+        r = build_plant(spinner(tmp_path, w0=w0), tmp_path / "out")
+        assert r["check"]["equal"]
+        for path in (r["pythonfmu"], r["native"]):
+            v = {x.name: x for x in read_model_description(path).modelVariables}
+            assert float(v["w0"].start) == w0, path
+
+
 def test_a_description_ending_in_a_bracket_that_is_no_unit_builds(tmp_path):
     # a user described an output as "..., in [-inf, inf]": the bracket is text, not a unit
     # (the build failed on it, "cannot read unit factor"); both FMUs are built and valid, the
