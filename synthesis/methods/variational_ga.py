@@ -13,8 +13,10 @@ archive of non-dominated laws belongs to the run loop, the parameter refinement 
 :class:`~synthesis.methods.refinement.Refinement`.
 
 Its departures from the lab algorithm (the authors' Free-Pascal programs), each for a reason,
-are listed in docs/methods/network_operator.md; the structure search's own steps (tuning
-promising forms, restarts) are :class:`~synthesis.methods.form_search.FormSearch`.
+are listed in docs/methods/network_operator.md; the structure search's own steps are
+:class:`~synthesis.methods.form_search.FormSearch` (tuning promising forms, restarts) and
+:class:`~synthesis.methods.form_moves.FormMoves` (the elite's trimmed variation lists,
+where a variation lands, the polish).
 
 References
 ----------
@@ -31,6 +33,7 @@ import numpy as np
 from descent_fmus.synthesis.methods.base import Candidate, Method
 from descent_fmus.synthesis.methods.encoding import (GrayCodec, StructureCodec, bits_array,
                                                      bits_text)
+from descent_fmus.synthesis.methods.form_moves import FormMoves
 from descent_fmus.synthesis.methods.form_search import FormSearch
 from descent_fmus.synthesis.methods.ga_config import GAConfig
 from descent_fmus.synthesis.methods.pareto import (Target, best_compromise, crowding_distance,
@@ -51,7 +54,7 @@ def _default_decode(psi, q):
     return psi, q
 
 
-class VariationalGA(FormSearch, Method):
+class VariationalGA(FormSearch, FormMoves, Method):
     """Multi-objective variational GA (see the module docstring).
 
     Parameters
@@ -267,20 +270,6 @@ class VariationalGA(FormSearch, Method):
             if bits:
                 m.bits[int(self.rng.integers(0, self.params.n_bits))] ^= 1
 
-    def _variation(self, m: _Member) -> tuple:
-        """A random structure variation for member ``m``; with ``arc_ops``, one that changes an
-        arc's operation (kind 0) is put on one of ``m``'s arcs, drawn uniformly (off: as
-        drawn, as before the setting existed)."""
-        v = self.structure.random(self.rng)
-        if self.cfg.arc_ops and v[0] == 0:
-            psi = self.matrix(m)
-            n = self.structure.n_sources
-            i, j = np.nonzero(np.triu(psi[:, n:], 1 - n))
-            if len(i):
-                k = int(self.rng.integers(0, len(i)))
-                v = (0, int(i[k]), int(j[k]) + n, v[3])
-        return v
-
     def _children(self) -> list:
         rng, cfg = self.rng, self.cfg
         children = []
@@ -376,35 +365,6 @@ class VariationalGA(FormSearch, Method):
             members = self._restart(members, best)
         return members
 
-    def _trim_candidates(self) -> list:
-        """Prefixes of the variation lists of a few Pareto members (the lab's elite step)."""
-        front = [k for k in np.flatnonzero(self.lh == 0) if k != 0]
-        if not front or self.cfg.elite_trim <= 0:
-            return []
-        picks = self.rng.choice(front, size=min(self.cfg.elite_trim, len(front)), replace=False)
-        out = []
-        for k in picks:
-            m = self.pop[int(k)]
-            for n in range(self._lchr):
-                out.append(((int(k), n), _Member(list(m.variations[:n]) +
-                                                 [StructureCodec.IDENTITY] * (self._lchr - n),
-                                                 m.bits.copy())))
-        return out
-
-    def _finish_trim(self, evaluated) -> None:
-        best = {}
-        for ((k, n), _), m in zip(self._pending_trim, evaluated):
-            if k in best:
-                continue
-            old = self.pop[k]
-            if m.cv <= old.cv and np.all(m.f <= old.f):   # a shorter prefix, nothing worse
-                best[k] = m
-        for k, m in best.items():
-            self.pop[k] = m
-        if best:
-            self.lh = dominance_counts(self.F, self.CV)
-        self._pending_trim = []
-
     # -- parameter refinement (synthesis.methods.refinement) -------------------------------
     def _structure_key(self, m: _Member) -> str:
         if self.structure is None:
@@ -436,27 +396,6 @@ class VariationalGA(FormSearch, Method):
             rungs = self.refine_cfg.rungs(len(starts))
             budget = rungs[-1] = rungs[-1] + self._rest(len(starts))
         self.refinement.start(starts, budget, self.rng, patience, rungs)
-
-    def _polish_due(self) -> bool:
-        """Whether the polish (``polish``) starts now: it has not, no refinement runs, the
-        structure search has begun (the basis search is over) and only the ``polish`` share of
-        the flight budget is left."""
-        share = self.refine_cfg.polish if self.refinement is not None else 0.0
-        if not share or self._polished or not self.flights or self.generation == 0 \
-                or self.refinement.active or self.target is None:
-            return False
-        return self.flights - self.evaluations <= share * self.flights
-
-    def _start_polish(self) -> None:
-        """The best law by the target gets a fresh CMA-ES of its own on its parameters, with
-        every flight left (the run's budget ends it)."""
-        self._polished, self._refine_due = True, False
-        k = int(self.target.order(self.F, self.CV)[0])
-        m = self.pop[k]
-        left = self.flights - self.evaluations
-        self.refinement.start([(k, m, self._structure_key(m), m.bits.copy())], left, self.rng)
-        self.stats["polish"] = {"member": k, "at": int(self.evaluations), "flights": int(left),
-                                "from": m.f.tolist()}
 
     def _finish_refine(self) -> None:
         """The refined parameters replace those of the members they started from."""

@@ -1,0 +1,86 @@
+"""Moves of the structure search beside the lab's variational GA (a mixin of
+:class:`~synthesis.methods.variational_ga.VariationalGA`): the lab's elite step (prefixes of
+the variation lists of a few Pareto members, ``elite_trim``), where a random structure
+variation lands (``ga arc_ops``), and the polish of the best law at the end of the flight
+budget (``refine polish``).  The last two are settings, off by default;
+docs/benchmarks/suite.md (search18, search19) records what they did.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from descent_fmus.synthesis.methods.encoding import StructureCodec
+from descent_fmus.synthesis.methods.pareto import dominance_counts
+
+__all__ = ["FormMoves"]
+
+
+class FormMoves:
+    """Mixed into the variational GA: uses its ``structure``, ``rng``, ``cfg``,
+    ``refine_cfg``, ``refinement``, ``target``, ``pop``, ``F``, ``CV``, ``flights``,
+    ``evaluations``, ``generation``, ``stats``, ``lh``, ``_lchr``, ``_pending_trim``,
+    ``matrix`` and ``_structure_key``."""
+
+    def _trim_candidates(self) -> list:
+        """Prefixes of the variation lists of a few Pareto members (the lab's elite step)."""
+        front = [k for k in np.flatnonzero(self.lh == 0) if k != 0]
+        if not front or self.cfg.elite_trim <= 0:
+            return []
+        picks = self.rng.choice(front, size=min(self.cfg.elite_trim, len(front)), replace=False)
+        out = []
+        for k in picks:
+            m = self.pop[int(k)]
+            for n in range(self._lchr):
+                out.append(((int(k), n), type(m)(list(m.variations[:n]) +
+                                                 [StructureCodec.IDENTITY] * (self._lchr - n),
+                                                 m.bits.copy())))
+        return out
+
+    def _finish_trim(self, evaluated) -> None:
+        best = {}
+        for ((k, n), _), m in zip(self._pending_trim, evaluated):
+            if k in best:
+                continue
+            old = self.pop[k]
+            if m.cv <= old.cv and np.all(m.f <= old.f):   # a shorter prefix, nothing worse
+                best[k] = m
+        for k, m in best.items():
+            self.pop[k] = m
+        if best:
+            self.lh = dominance_counts(self.F, self.CV)
+        self._pending_trim = []
+
+    def _variation(self, m) -> tuple:
+        """A random structure variation for member ``m``; with ``arc_ops``, one that changes an
+        arc's operation (kind 0) is put on one of ``m``'s arcs, drawn uniformly (off: as
+        drawn, as before the setting existed)."""
+        v = self.structure.random(self.rng)
+        if self.cfg.arc_ops and v[0] == 0:
+            psi = self.matrix(m)
+            n = self.structure.n_sources
+            i, j = np.nonzero(np.triu(psi[:, n:], 1 - n))
+            if len(i):
+                k = int(self.rng.integers(0, len(i)))
+                v = (0, int(i[k]), int(j[k]) + n, v[3])
+        return v
+
+    def _polish_due(self) -> bool:
+        """Whether the polish (``polish``) starts now: it has not, no refinement runs, the
+        structure search has begun (the basis search is over) and only the ``polish`` share of
+        the flight budget is left."""
+        share = self.refine_cfg.polish if self.refinement is not None else 0.0
+        if not share or self._polished or not self.flights or self.generation == 0 \
+                or self.refinement.active or self.target is None:
+            return False
+        return self.flights - self.evaluations <= share * self.flights
+
+    def _start_polish(self) -> None:
+        """The best law by the target gets a fresh CMA-ES of its own on its parameters, with
+        every flight left (the run's budget ends it)."""
+        self._polished, self._refine_due = True, False
+        k = int(self.target.order(self.F, self.CV)[0])
+        m = self.pop[k]
+        left = self.flights - self.evaluations
+        self.refinement.start([(k, m, self._structure_key(m), m.bits.copy())], left, self.rng)
+        self.stats["polish"] = {"member": k, "at": int(self.evaluations), "flights": int(left),
+                                "from": m.f.tolist()}
