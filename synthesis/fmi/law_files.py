@@ -193,12 +193,15 @@ def _readable_folder() -> Path:
     return cache_dir() / f"readable-{h.hexdigest()[:16]}"
 
 
-def prefetch_readable(laws, processes: int | None = None, meanwhile=None) -> None:
+def prefetch_readable(laws, processes: int | None = None, meanwhile=None,
+                      initializer=None) -> None:
     """Make the readable forms of ``laws`` ready for :func:`readable_text` and
     :func:`law_document`: read from the cache folder (:func:`_readable_folder`), the others
     computed -- across ``processes`` worker processes (default: one per
     :data:`LAWS_PER_PROCESS` laws, at most one per core; ``meanwhile()`` runs here while they
-    work, or first) -- and kept there."""
+    work, or first) -- and kept there.  ``initializer()`` runs first in every worker process
+    (a run passes one that ends the worker with its parent: a run killed while its report is
+    written leaves no process behind)."""
     folder = _readable_folder()
     todo = {}
     for law in laws:
@@ -211,7 +214,7 @@ def prefetch_readable(laws, processes: int | None = None, meanwhile=None) -> Non
             todo[key] = law
     n = processes or min(os.cpu_count() or 1, len(todo) // LAWS_PER_PROCESS)
     if n > 1:
-        done = _in_processes(list(todo.values()), n, meanwhile)
+        done = _in_processes(list(todo.values()), n, meanwhile, initializer)
     else:
         if meanwhile is not None:
             meanwhile()
@@ -222,16 +225,17 @@ def prefetch_readable(laws, processes: int | None = None, meanwhile=None) -> Non
             _keep(folder / f"{key}.json", d)
 
 
-def _in_processes(laws, n: int, meanwhile=None) -> list:
+def _in_processes(laws, n: int, meanwhile=None, initializer=None) -> list:
     """:func:`_compute_readable` of ``laws`` in ``n`` forked processes (SymPy imported here
-    first, so that they start with it), ``meanwhile()`` run here while they work; Nones if
-    they cannot run (the caller computes those here)."""
+    first, so that they start with it; ``initializer()`` run first in each), ``meanwhile()``
+    run here while they work; Nones if they cannot run (the caller computes those here)."""
     import multiprocessing
     from concurrent.futures import ProcessPoolExecutor
 
     import sympy  # noqa: F401
     try:
-        with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork")) as pool:
+        with ProcessPoolExecutor(n, mp_context=multiprocessing.get_context("fork"),
+                                 initializer=initializer) as pool:
             done = pool.map(_compute_readable, laws, chunksize=max(1, -(-len(laws) // n)))
             if meanwhile is not None:
                 meanwhile()

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import csv
+import functools
 import os
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -22,7 +23,7 @@ from descent_fmus.synthesis.fmi.law_files import (LawExport, choose_law_fmu, pre
 from descent_fmus.synthesis.run import readable_ahead
 from descent_fmus.synthesis.run.folder import write_json
 from descent_fmus.synthesis.run.guard import check_export_space
-from descent_fmus.synthesis.run.signals import check_stop
+from descent_fmus.synthesis.run.signals import check_stop, watch_parent
 
 __all__ = ["write_results", "export_law", "plot_front", "feasibility"]
 
@@ -135,7 +136,8 @@ def write_results(problem, archive, evaluator, out: Path, fmu_dir, export,
     laws = [cand.law for cand, _, _ in front]
     readable_ahead.stop()       # what it computed during the search is in the cache folder
     # the figure's imports while the readable forms are computed in other processes
-    prefetch_readable(laws, meanwhile=_import_pyplot)
+    prefetch_readable(laws, meanwhile=_import_pyplot,
+                      initializer=functools.partial(watch_parent, os.getpid()))
     rows = _rows(problem, front, evaluator.evaluate(laws).extras)
     fields = list(dict.fromkeys(key for r in rows for key in r))
     with open(out / "pareto.csv", "w", newline="") as fh:
