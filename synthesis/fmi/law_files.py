@@ -392,14 +392,15 @@ def _closed_loop_files(problem, fmu_dir, ctrl: Path, dest: Path, description: st
     was built), else the pythonfmu plant.  Returns the paths (``closed_loop_fmu``, ``ssp``) and
     ``closed_loop_plant`` ("native" or "pythonfmu": the plant inside)."""
     from descent_fmus.synthesis.fmi.containers import closed_loop_fmu, write_ssp
-    from descent_fmus.synthesis.fmi.native_loop import NATIVE_DIR, twin_of
+    from descent_fmus.synthesis.fmi.native_loop import twin_of
     w = problem.wiring
-    plant_fmu = problem.fmu_paths(fmu_dir)[0]
-    plant_fmu = twin_of(plant_fmu, w.plant) or plant_fmu
+    own = problem.fmu_paths(fmu_dir)[0]
+    twin = twin_of(own, w.plant)
+    plant_fmu = twin or own
     wl = replace(w, description=description[:2000])
     names = list(dict.fromkeys(k for s in problem.initial_states for k in s))
     plant_params = tuple((n, "plant", n) for n in names)
     return {"closed_loop_fmu": str(closed_loop_fmu(wl, plant_fmu, ctrl, dest / f"{w.name}.fmu",
                                                    parameters=plant_params)),
             "ssp": str(write_ssp(wl, plant_fmu, ctrl, dest / f"{w.name}.ssp")),
-            "closed_loop_plant": "native" if plant_fmu.parent.name == NATIVE_DIR else "pythonfmu"}
+            "closed_loop_plant": "native" if twin is not None else "pythonfmu"}

@@ -150,7 +150,6 @@ def test_short_run_on_a_double_integrator_finds_a_switching_law():
     from descent_fmus.synthesis.methods.variational_ga import VariationalGA
     from descent_fmus.synthesis.methods.encoding import StructureCodec
     from descent_fmus.synthesis.methods.pareto import ParetoArchive
-    from descent_fmus.synthesis.run.evaluation import Evaluation
     from descent_fmus.synthesis.run.loop import RunLoop
     basic = NetworkOperator.linear([[-1.0, -1.5]], bounds=[(-1.0, 1.0)], size=12)
     structure = StructureCodec(basic.size, basic.nx + len(basic.q), PAPER_UNARY, PAPER_BINARY)
@@ -166,9 +165,7 @@ def test_short_run_on_a_double_integrator_finds_a_switching_law():
                        # short run's 60 evaluations give each new form 15, and seed 1 keeps a
                        # linear law (measured; the suite's runs measure the default)
                        refine=RefineConfig(basis=100, evals=60, forms=0), flights=1500)
-    loop = RunLoop(ga, lambda laws: Evaluation(F := _di_objectives(laws), np.zeros(len(F)),
-                                               [{}] * len(F), len(F)),
-                   ParetoArchive(), flights=1500).run()
+    loop = RunLoop(ga, _flat(_di_objectives), ParetoArchive(), flights=1500).run()
     law = loop.archive.items[Target(0).best(loop.archive.F, loop.archive.cv)][0].law
     # its form: a switching operation (sgn, Heaviside, pos or dead zone) on the path to u
     ops = {int(law.psi[i, j]) for i in range(law.size) for j in range(i + 1, law.size)
@@ -239,6 +236,16 @@ def _stall_ga(seed: int, generations: int, restart_epochs: int = 2):
     return ga, basic.psi
 
 
+def _flat(objectives):
+    """A run loop's evaluator of ``objectives(laws)``: every law feasible, one flight each."""
+    from descent_fmus.synthesis.run.evaluation import Evaluation
+
+    def evaluate(laws):
+        F = objectives(laws)
+        return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
+    return evaluate
+
+
 def _stalled_objectives(psi0):
     """1 for the basic matrix, 2 + (changed entries) for any other: no law ever beats the
     basis, so the search stalls from its first epoch."""
@@ -251,14 +258,10 @@ def _stalled_objectives(psi0):
 
 def test_a_stalled_search_restarts_every_restart_epochs():
     from descent_fmus.synthesis.methods.pareto import ParetoArchive
-    from descent_fmus.synthesis.run.evaluation import Evaluation
     from descent_fmus.synthesis.run.loop import RunLoop
 
     def run(ga, objectives):
-        def evaluate(laws):
-            F = objectives(laws)
-            return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
-        return RunLoop(ga, evaluate, ParetoArchive()).run().method
+        return RunLoop(ga, _flat(objectives), ParetoArchive()).run().method
 
     ga, psi0 = _stall_ga(3, 60)
     a = run(ga, _stalled_objectives(psi0))
@@ -341,7 +344,6 @@ def test_the_polish_flies_the_last_share_on_the_best_law():
     # target flies the rest.  Oracle: the same seeded run with polish = 0 (the GA's bit flips
     # to the end) and the bowl's closed-form minimum 0
     from descent_fmus.synthesis.methods.pareto import ParetoArchive
-    from descent_fmus.synthesis.run.evaluation import Evaluation
     from descent_fmus.synthesis.run.loop import RunLoop
 
     def run(polish, flights=1000):
@@ -349,10 +351,7 @@ def test_the_polish_flies_the_last_share_on_the_best_law():
         ga.refine_cfg = RefineConfig(basis=0, evals=0, polish=polish)
         ga.flights, objectives = flights, _bowl(psi0)
 
-        def evaluate(laws):
-            F = objectives(laws)
-            return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
-        loop = RunLoop(ga, evaluate, ParetoArchive(), flights=flights).run()
+        loop = RunLoop(ga, _flat(objectives), ParetoArchive(), flights=flights).run()
         return ga, loop
 
     ga, loop = run(0.2)
@@ -376,7 +375,6 @@ def test_a_checkpoint_in_the_polish_resumes_to_the_same_end():
     # oracle: the uninterrupted run (the same seed): a JSON checkpoint taken at a boundary
     # during the polish, loaded into a new GA, ends on the same population
     from descent_fmus.synthesis.methods.pareto import ParetoArchive
-    from descent_fmus.synthesis.run.evaluation import Evaluation
     from descent_fmus.synthesis.run.loop import RunLoop
 
     def ga_and_loop(state=None, done=0):
@@ -387,10 +385,8 @@ def test_a_checkpoint_in_the_polish_resumes_to_the_same_end():
         if state is not None:
             ga.load_state(state)
 
-        def evaluate(laws):
-            F = objectives(laws)
-            return Evaluation(F, np.zeros(len(F)), [{}] * len(F), len(F))
-        return ga, RunLoop(ga, evaluate, ParetoArchive(), flights=1000, flights_done=done)
+        return ga, RunLoop(ga, _flat(objectives), ParetoArchive(), flights=1000,
+                           flights_done=done)
 
     whole, loop = ga_and_loop()
     loop.run()
