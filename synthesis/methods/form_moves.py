@@ -1,9 +1,10 @@
 """Moves of the structure search beside the lab's variational GA (a mixin of
 :class:`~synthesis.methods.variational_ga.VariationalGA`): the lab's elite step (prefixes of
 the variation lists of a few Pareto members, ``elite_trim``), where a random structure
-variation lands (``ga arc_ops``), and the polish of the best law at the end of the flight
-budget (``refine polish``).  The last two are settings, off by default;
-docs/benchmarks/suite.md (search18, search19) records what they did.
+variation lands (``ga arc_ops``) and how its kind and operation are drawn (``ga credit``),
+and the polish of the best law at the end of the flight budget (``refine polish``).  The last
+three are settings, off by default; docs/benchmarks/suite.md (search18, search19, search20)
+records what they did.
 """
 from __future__ import annotations
 
@@ -12,7 +13,12 @@ import numpy as np
 from descent_fmus.synthesis.methods.encoding import StructureCodec
 from descent_fmus.synthesis.methods.pareto import dominance_counts
 
-__all__ = ["FormMoves"]
+__all__ = ["CREDIT_DECAY", "FormMoves"]
+
+#: [choice] the credit of variation kinds and operations (``ga credit``) shrinks by this
+#: factor each generation (a half-life of about 14 generations): what improved the population
+#: lately, not at the start of the run
+CREDIT_DECAY = 0.95
 
 
 class FormMoves:
@@ -54,7 +60,7 @@ class FormMoves:
         """A random structure variation for member ``m``; with ``arc_ops``, one that changes an
         arc's operation (kind 0) is put on one of ``m``'s arcs, drawn uniformly (off: as
         drawn, as before the setting existed)."""
-        v = self.structure.random(self.rng)
+        v = self._credited() if self.cfg.credit else self.structure.random(self.rng)
         if self.cfg.arc_ops and v[0] == 0:
             psi = self.matrix(m)
             n = self.structure.n_sources
@@ -63,6 +69,52 @@ class FormMoves:
                 k = int(self.rng.integers(0, len(i)))
                 v = (0, int(i[k]), int(j[k]) + n, v[3])
         return v
+
+    def _credited(self) -> tuple:
+        """A random structure variation whose kind (0-3) and operation are each drawn, with
+        probability ``credit``, in proportion to their credit (:meth:`_credit`: the share of
+        draws whose child changed and entered the population, Laplace-smoothed), else
+        uniformly; the arc's nodes as :meth:`StructureCodec.random` draws them."""
+        s, rng = self.structure, self.rng
+        kind = 4 if s.weighted and rng.random() < s.weighted else self._credit_pick("kind", 4)
+        j = int(rng.integers(s.n_sources, s.size))
+        i = int(rng.integers(0, j))
+        ops = s.binary if kind == 1 else s.unary
+        op = ops[self._credit_pick("binary" if kind == 1 else "unary", len(ops))]
+        return (kind, i, j, int(op))
+
+    def _credit_pick(self, table: str, n: int) -> int:
+        """An index below ``n``: by the credit of ``table`` with probability ``credit``, else
+        uniform."""
+        tries, wins = self.stats.get("credit", {}).get(table, ([0.0] * n, [0.0] * n))
+        if self.rng.random() >= self.cfg.credit:
+            return int(self.rng.integers(0, n))
+        rate = (np.asarray(wins) + 1.0) / (np.asarray(tries) + 2.0)
+        return int(self.rng.choice(n, p=rate / rate.sum()))
+
+    def _credit(self, fresh: tuple, accepted: bool) -> None:
+        """A child with a fresh variation ``(kind, op, changed)`` was offered to the
+        population: a try of its kind (every draw: one that changed nothing, as most arc
+        changes and removals drawn at random do, wins nothing), and when it changed the law a
+        try of its operation; each a win when the changed child entered."""
+        kind, op, changed = fresh
+        s = self.structure
+        tables = self.stats.setdefault("credit", {})
+        picks = [("kind", kind, 4)] if kind < 4 else []
+        if changed:
+            ops, table = (s.binary, "binary") if kind == 1 else (s.unary, "unary")
+            picks.append((table, ops.index(op), len(ops)))
+        for table, k, n in picks:
+            tries, wins = tables.setdefault(table, ([0.0] * n, [0.0] * n))
+            tries[k] += 1.0
+            wins[k] += 1.0 if (accepted and changed) else 0.0
+
+    def _decay_credit(self) -> None:
+        """Each generation the credit counts shrink by :data:`CREDIT_DECAY`: recent
+        generations weigh most."""
+        for tries, wins in self.stats.get("credit", {}).values():
+            for t in (tries, wins):
+                t[:] = [c * CREDIT_DECAY for c in t]
 
     def _polish_due(self) -> bool:
         """Whether the polish (``polish``) starts now: it has not, no refinement runs, the

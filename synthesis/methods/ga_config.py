@@ -88,6 +88,14 @@ class GAConfig:
                               "of the member's arcs (1), not any pair of nodes, where most "
                               "pairs have no arc and the variation does nothing (0: as drawn)",
                            0, 1)
+    # [choice] off by default: docs/methods/network_operator.md "CMA-ES refinement of the
+    # parameters" (the paragraph on credit)
+    credit: float = setting(0.0, "share of random structure variations whose kind and "
+                                 "operation are drawn by their credit (how often a child "
+                                 "whose fresh variation changed its law entered the "
+                                 "population, recent generations weighing most) instead of "
+                                 "uniformly (0 = off: the draws as before the setting existed)",
+                            0.0, 1.0)
 
     def __post_init__(self):
         check_settings(self, "ga.")

@@ -48,6 +48,7 @@ class _Member:
     bits: np.ndarray
     f: np.ndarray = field(default=None)
     cv: float = 0.0
+    fresh: tuple | None = None        # (kind, op, whether it changed the law) of its new variation
 
 
 def _default_decode(psi, q):
@@ -216,7 +217,10 @@ class VariationalGA(FormSearch, FormMoves, Method):
             # rebuilt from the members twice per child and twice more per replacement
             FC = (self.F, self.CV)
             for child in members:
-                self._insert(child, FC)
+                accepted = self._insert(child, FC)
+                if child.fresh is not None:
+                    self._credit(child.fresh, accepted)
+            self._decay_credit()
             self.generation += 1
             self._epoch_due = True
             front = self.F[self.lh == 0]
@@ -266,7 +270,12 @@ class VariationalGA(FormSearch, FormMoves, Method):
     def _mutate(self, m: _Member, bits: bool = True) -> None:
         if self.rng.random() < self.cfg.p_mutation:
             if self._lchr:
-                m.variations[int(self.rng.integers(0, self._lchr))] = self._variation(m)
+                v = self._variation(m)          # (drawn before the slot, as ever)
+                k = int(self.rng.integers(0, self._lchr))
+                before = self.matrix(m) if self.cfg.credit else None
+                m.variations[k] = v
+                if before is not None:
+                    m.fresh = (v[0], v[3], not np.array_equal(before, self.matrix(m)))
             if bits:
                 m.bits[int(self.rng.integers(0, self.params.n_bits))] ^= 1
 
@@ -294,8 +303,9 @@ class VariationalGA(FormSearch, FormMoves, Method):
                     self._mutate(child, bits=False)
                 else:
                     self._mutate(child)
-                self._new_weights(child, pa if len(children) % 2 == 0 else pb)
-                self._morph(child, pa if len(children) % 2 == 0 else pb)
+                parent = pa if len(children) % 2 == 0 else pb
+                self._new_weights(child, parent)
+                self._morph(child, parent)
                 children.append(child)
         return children
 
@@ -314,26 +324,27 @@ class VariationalGA(FormSearch, FormMoves, Method):
         if FC is not None:
             F[w], C[w] = member.f, member.cv
 
-    def _insert(self, child: _Member, FC=None) -> None:
-        """Offer ``child`` to the population (``FC``: as :meth:`_replace`)."""
+    def _insert(self, child: _Member, FC=None) -> bool:
+        """Offer ``child`` to the population (``FC``: as :meth:`_replace`); whether it
+        entered."""
         if FC is None:
             FC = (self.F, self.CV)
         (F, C), f = FC, child.f
         if np.any(np.all(F == f, axis=1) & (C == child.cv)):
-            return                       # same objectives as a member: keep diversity
+            return False                 # same objectives as a member: keep diversity
         lh_child = int(dominance_matrix(F, C, [f], [child.cv])[:, 0].sum())
         lh = self.lh.copy()
         lh[0] = -1                       # never replace individual 0 (the basic solution)
         worst_lh = lh.max()
         if lh_child > worst_lh or (lh_child == worst_lh and worst_lh > 0):
-            return
+            return False
         cand = np.flatnonzero(lh == worst_lh)
         if lh_child == worst_lh:
             # whole population non-dominated: the child replaces the most crowded member if it
             # is itself less crowded there (keeps the front spreading instead of freezing)
             cd = crowding_distance(np.vstack([F[cand], f]))
             if cd[-1] <= cd[:-1].min():
-                return
+                return False
             w = int(cand[np.argmin(cd[:-1])])
         elif len(cand) > 1:
             w = int(cand[np.argmin(crowding_distance(F[cand]))])
@@ -341,6 +352,7 @@ class VariationalGA(FormSearch, FormMoves, Method):
             w = int(cand[0])
         self._replace(w, child, FC)
         self.stats["accepted"] = self.stats.get("accepted", 0) + 1
+        return True
 
     # -- epoch ----------------------------------------------------------------------------
     def _new_basis(self) -> list:
