@@ -48,7 +48,9 @@ def print_table(table: dict, seeds) -> None:
                   f"{'yes' if v.get('at_least_as_good') else 'no'}; clearly better (<= "
                   f"{CLEARLY} x): {'yes' if v.get('clearly_better') else 'no'}")
         if "goal_met" in v:
-            print(f"  goal met: {'yes' if v['goal_met'] else 'no'}")
+            k, m = v["seeds_meeting_goal"]
+            print(f"  goal met: {'yes' if v['goal_met'] else 'no'} (the median); seeds "
+                  f"meeting it: {k} of {m}")
         no = next((r for r in t["rows"] if r["method"] == NETWORK_OPERATOR), None)
         if no is not None:
             form = ("keeps the basic law's form" if no["keeps_basic_form"]
@@ -76,6 +78,10 @@ def print_budgets(at: dict, seeds) -> None:
                      + ", ".join(_fmt(v) if v is not None else "-" for v in r["values"][n])
                      + ")" for n in t["budgets"]]
             print(f"  {r['method']:18s} " + "; ".join(cells))
+            meeting = [f"{n}: {k} of {m} (<= {_fmt(t['goals'][n], 4)})"
+                       for n, (k, m) in r.get("meeting", {}).items() if m]
+            if meeting:
+                print(f"  {'':18s} seeds meeting the goal: " + "; ".join(meeting))
         of = t.get("no_over_gp_of", "value")
         if "no_over_gp" in t:
             print(f"  network operator / GP ({of}): "

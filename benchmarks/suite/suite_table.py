@@ -125,7 +125,8 @@ def tabulate(names, seeds, out: Path, fmus=None) -> dict:
         table[name] = {"reference": ref["value"], "reference_label": ref["label"],
                        "methods": methods_of(problem),
                        "reference_note": ref_details, "plot": spec.plot,
-                       "goal": spec.goal, "goal_ratio": spec.goal_ratio, "rows": rows,
+                       "goal": spec.goal, "goal_ratio": spec.goal_ratio,
+                       "goals": budget_goals(spec, ref["value"]), "rows": rows,
                        "verdict": verdict(rows, ref["value"], spec.goal_ratio,
                                           spec.goal_value)}
         table[name]["reference_details"] = jsonable(ref["details"])
@@ -136,20 +137,40 @@ def tabulate(names, seeds, out: Path, fmus=None) -> dict:
 CLEARLY = 0.9
 
 
+def budget_goals(spec, ref) -> dict:
+    """``{flights: the largest value meeting the goal}`` of a problem: its goal at its own
+    budget (``goal_ratio`` x the reference, or ``goal_value``) and its ``goal_at``."""
+    out = {}
+    if spec.goal_ratio is not None and ref:
+        out[spec.flights] = spec.goal_ratio * ref
+    elif spec.goal_value is not None:
+        out[spec.flights] = spec.goal_value
+    out.update(dict(spec.goal_at))
+    return out
+
+
+def seeds_meeting(values, bound) -> list:
+    """``[seeds whose value is at most bound, seeds with a value]`` (the seed count behind a
+    median: a median of three meets a goal when two seeds do)."""
+    got = [v for v in values if v is not None and v == v]
+    return [sum(v <= bound for v in got), len(got)]
+
+
 def verdict(rows, ref, goal_ratio, goal_value=None) -> dict:
     """Against the best baseline on the median: ``at_least_as_good``, ``clearly_better``
-    (median <= 0.9 x the best baseline's), the ratio of the two, and the goal met (median
-    <= goal_ratio x the reference, or <= goal_value)."""
+    (median <= 0.9 x the best baseline's), the ratio of the two, the goal met (median
+    <= goal_ratio x the reference, or <= goal_value) and the seeds that meet it
+    (``seeds_meeting_goal``, :func:`seeds_meeting`)."""
     no = next((r for r in rows if r["method"] == NETWORK_OPERATOR), None)
     base = [r for r in rows if is_baseline(r["method"])]
     out = {}
     if no is not None:
         out.update(form_bought(no, next((r for r in rows if r["method"] == NOP_LCHR0), None)))
         n = no["median"]
-        if goal_ratio is not None and ref:
-            out["goal_met"] = bool(n == n and n / ref <= goal_ratio)
-        elif goal_value is not None:
-            out["goal_met"] = bool(n == n and n <= goal_value)
+        bound = goal_ratio * ref if goal_ratio is not None and ref else goal_value
+        if bound is not None:
+            out["goal_met"] = bool(n == n and n <= bound)
+            out["seeds_meeting_goal"] = seeds_meeting(no["values"], bound)
     if no is None or not base:
         return out
     best = min(base, key=lambda r: r["median"] if r["median"] == r["median"] else math.inf)
@@ -240,13 +261,17 @@ def at_budgets(table: dict, dirs, seeds, budgets) -> dict:
             vals = {n: [value_at_budget(method, runs.get(s, []), n) for s in seeds]
                     for n in budgets}
             longest = {s: max(rs, key=lambda r: r["flights"]) for s, rs in runs.items()}
+            goals = t.get("goals", {})
             rows.append({"method": method, "values": vals,
                          "median": {n: _median([v for v in vals[n] if v is not None])
                                     for n in budgets},
+                         "meeting": {n: seeds_meeting(vals[n], goals[n])
+                                     for n in budgets if n in goals},
                          "curves": {s: r["curve"] for s, r in longest.items()},
                          "ends": {s: r["flights"] for s, r in longest.items()}})
         by = {r["method"]: r["median"] for r in rows}
         res = {"reference": ref, "plot": t.get("plot"), "goal_ratio": t.get("goal_ratio"),
+               "goals": t.get("goals", {}),
                "budgets": list(budgets), "rows": rows,
                **no_over_gp(by.get(NETWORK_OPERATOR, {}), by.get("gp", {}), ref,
                             t.get("plot"), budgets)}

@@ -316,6 +316,23 @@ def test_nop_lchr0_is_a_variant_beside_the_network_operator_not_a_baseline():
         Path("d/suite-held-out.png")
 
 
+def test_the_table_counts_the_seeds_that_meet_each_budgets_goal():
+    # the seeds behind a median (hand count): parking's goal is <= 0.05 at its 8 000 flights
+    # and <= 0.01 at 20 000 (issue #37's two parking goals); a seed without a value is not
+    # counted; the minimum-time goals are ratios to the reference
+    import suite
+    import suite_table
+    goals = suite_table.budget_goals(suite.SPECS["parking"], 0.0)
+    assert goals == {8000: 0.05, 20000: 0.01}
+    assert suite_table.seeds_meeting([0.0083, 0.0193, None, 0.01, math.nan], 0.01) == [2, 3]
+    md = suite_table.budget_goals(suite.SPECS["mintime-di"], 2.0)
+    assert md == {4000: pytest.approx(2.1, rel=1e-15)}
+    rows = [{"method": "network-operator", "median": 0.0193, "keeps_basic_form": False,
+             "values": [0.0083, 0.0193, 0.0610]}]
+    v = suite_table.verdict(rows, 0.0, None, 0.05)
+    assert v["goal_met"] is True and v["seeds_meeting_goal"] == [2, 3]
+
+
 def test_run_py_set_names_recipe_settings_and_rejects_others_with_exit_2(tmp_path):
     import run
     # integers stay integers, the rest are floats (the recipe's checks take them as given)
