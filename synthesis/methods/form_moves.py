@@ -1,10 +1,11 @@
 """Moves of the structure search beside the lab's variational GA (a mixin of
 :class:`~synthesis.methods.variational_ga.VariationalGA`): the lab's elite step (prefixes of
-the variation lists of a few Pareto members, ``elite_trim``), where a random structure
-variation lands (``ga arc_ops``) and how its kind and operation are drawn (``ga credit``),
-and the polish of the best law at the end of the flight budget (``refine polish``).  The last
-three are settings, off by default; docs/benchmarks/suite.md (search18, search19, search20)
-records what they did.
+the variation lists of a few Pareto members, ``elite_trim``), the neighbourhood sweep of the
+tuned basic law (``refine sweep``, ``sweep_products``), where a random structure variation
+lands (``ga arc_ops``) and how its kind and operation are drawn (``ga credit``), and the polish
+of the best law at the end of the flight budget (``refine polish``).  The last three are
+settings, off by default; docs/benchmarks/suite.md (search15 to search21) records what each
+did.
 """
 from __future__ import annotations
 
@@ -13,7 +14,12 @@ import numpy as np
 from descent_fmus.synthesis.methods.encoding import StructureCodec
 from descent_fmus.synthesis.methods.pareto import dominance_counts
 
-__all__ = ["CREDIT_DECAY", "FormMoves"]
+__all__ = ["CREDIT_DECAY", "FormMoves", "SWEEP_EPOCHS"]
+
+#: [choice] the neighbourhood sweep (``refine sweep``) is flown only when the flights left
+#: after it hold this many epochs of the structure search: its forms are tuned by the
+#: halving after an epoch (docs/methods/network_operator.md, "The one-operation neighbourhood")
+SWEEP_EPOCHS = 1
 
 #: [choice] the credit of variation kinds and operations (``ga credit``) shrinks by this
 #: factor each generation (a half-life of about 14 generations): what improved the population
@@ -22,7 +28,8 @@ CREDIT_DECAY = 0.95
 
 
 class FormMoves:
-    """Mixed into the variational GA: uses its ``structure``, ``rng``, ``cfg``,
+    """Mixed into the variational GA (and its :class:`FormSearch` mixin: ``_skeleton``,
+    ``_scaled_rows``, ``_room``): uses its ``structure``, ``rng``, ``cfg``,
     ``refine_cfg``, ``refinement``, ``target``, ``pop``, ``F``, ``CV``, ``flights``,
     ``evaluations``, ``generation``, ``stats``, ``lh``, ``_lchr``, ``_pending_trim``,
     ``matrix`` and ``_structure_key``."""
@@ -115,6 +122,71 @@ class FormMoves:
         for tries, wins in self.stats.get("credit", {}).values():
             for t in (tries, wins):
                 t[:] = [c * CREDIT_DECAY for c in t]
+
+    def _start_sweep(self) -> None:
+        """The neighbourhood sweep of the tuned basic law (``refine sweep``), pending."""
+        sweep = self._sweep_members()
+        if sweep:
+            self._pending = ("sweep", sweep)
+
+    def _sweep_members(self) -> list:
+        """The neighbourhood sweep's candidates (``sweep``), once, when the basic solution's
+        search ends: every form one changed unary operation away from the tuned basic law
+        (each arc of its matrix, each operation of the structure's set, in matrix order),
+        then with ``sweep_products`` every form one added arc away that brings an input
+        (through each operation) into a product node it does not feed; each taken once per
+        skeleton (:func:`form_skeleton`: not the basic law's, nor another neighbour's) and
+        flown with the basic law's constants scaled as the screening does
+        (:meth:`_scaled_rows`: the first ``sweep``, or ``sweep_products``, pairs).  Reads no
+        random numbers; each candidate's form is kept for :meth:`_finish_sweep`.  None when
+        the flights left after them would not hold ``SWEEP_EPOCHS`` epochs of the structure
+        search: the swept forms are tuned by the halving after an epoch."""
+        self._sweep_k = []
+        n = self.refine_cfg.sweep
+        if not n or self.structure is None or self.target is None or not self._lchr:
+            return []
+        basis = self.pop[0]
+        psi = self.matrix(basis)
+        seen, out = {self._skeleton(basis)}, []
+        moves = [(0, int(i), int(j), int(op), n) for i, j in zip(*np.nonzero(np.triu(psi, 1)))
+                 for op in self.structure.unary if op != psi[i, j]]
+        if self.refine_cfg.sweep_products:
+            moves += [(2, i, int(j), int(op), self.refine_cfg.sweep_products)
+                      for j in np.flatnonzero(np.diag(psi) == 2)      # 2: a product node
+                      for i in range(self.structure.n_sources - self.params.n)
+                      if i < j and not psi[i, j] for op in self.structure.unary]
+        for kind, i, j, op, times in moves:
+            m = type(basis)([(kind, i, j, op)] + list(basis.variations[1:]), basis.bits.copy())
+            if (sk := self._skeleton(m)) not in seen:
+                seen.add(sk)
+                rows = self._scaled_rows(m, times)
+                out += rows
+                self._sweep_k += [len(seen) * (-1 if kind == 2 else 1)] * len(rows)
+        if not self._room(SWEEP_EPOCHS, len(out)):
+            self.stats["sweep_skipped"] = len(out)
+            self._sweep_k = []
+            return []
+        return out
+
+    def _finish_sweep(self, members) -> None:
+        """The best flight of each swept form joins the population as a child does -- a form
+        of ``sweep_products`` (its key negative) only when it beats the tuned basic law; with
+        ``sweep_keep``, only that many forms, the best by the target (ties: the sweep's
+        order)."""
+        best, basis = {}, self.pop[0]
+        for k, m in zip(self._sweep_k, members):
+            if k not in best or self.target.better(m.f, best[k].f, m.cv, best[k].cv):
+                best[k] = m
+        forms = [m for k, m in best.items()
+                 if k > 0 or self.target.better(m.f, basis.f, m.cv, basis.cv)]
+        keep = self.refine_cfg.sweep_keep
+        if keep and len(forms) > keep:
+            order = self.target.order(np.array([m.f for m in forms]), [m.cv for m in forms])
+            forms = [forms[int(i)] for i in order[:keep]]
+        for m in forms:
+            self._insert(m)
+        self.stats["swept_forms"] = self.stats.get("swept_forms", 0) + len(forms)
+        self._sweep_k = []
 
     def _polish_due(self) -> bool:
         """Whether the polish (``polish``) starts now: it has not, no refinement runs, the

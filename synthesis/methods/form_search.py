@@ -13,16 +13,12 @@ from descent_fmus.synthesis.methods.form_algebra import (form_skeleton, preservi
                                                         touched_constants, upstream)
 from descent_fmus.synthesis.methods.pareto import dominance_counts
 
-__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "SWEEP_EPOCHS", "form_skeleton",
+__all__ = ["FormSearch", "ISLAND_EPOCHS", "SCREEN_FACTORS", "form_skeleton",
            "preserving_constants", "touched_constants", "upstream"]
 
 #: [choice] a new island is started only when the flights left hold this many epochs of the
 #: structure search (docs/methods/network_operator.md, "islands")
 ISLAND_EPOCHS = 3
-#: [choice] the neighbourhood sweep (``refine sweep``) is flown only when the flights left
-#: after it hold this many epochs of the structure search: its forms are tuned by the
-#: halving after an epoch (docs/methods/network_operator.md, "The one-operation neighbourhood")
-SWEEP_EPOCHS = 1
 #: [choice] the screening's moves, in this order (the first ``screen_evals`` are flown): the
 #: constants a form's variations touched times the first factor, the others times the second.
 #: What a new form's inherited constants most often miss is their scale (an operation put on
@@ -153,66 +149,6 @@ class FormSearch:
             q2[idx], q2[rest] = base * touched, q[rest] * others
             out.append(type(m)(list(m.variations), codec.encode(q2)))
         return out
-
-    def _start_sweep(self) -> None:
-        """The neighbourhood sweep of the tuned basic law (``refine sweep``), pending."""
-        sweep = self._sweep_members()
-        if sweep:
-            self._pending = ("sweep", sweep)
-
-    def _sweep_members(self) -> list:
-        """The neighbourhood sweep's candidates (``sweep``), once, when the basic solution's
-        search ends: every form one changed unary operation away from the tuned basic law
-        (each arc of its matrix, each operation of the structure's set, in matrix order),
-        taken once per skeleton (:func:`form_skeleton`: not the basic law's, nor another
-        neighbour's), each flown with the basic law's constants scaled as the screening does
-        (:meth:`_scaled_rows`, the first ``sweep`` pairs).  Reads no random numbers; the form
-        of each candidate is kept for :meth:`_finish_sweep`.  None when the flights left
-        after them would not hold ``SWEEP_EPOCHS`` epochs of the structure search: the swept
-        forms are tuned by the halving after an epoch."""
-        self._sweep_k = []
-        n = self.refine_cfg.sweep
-        if not n or self.structure is None or self.target is None or not self._lchr:
-            return []
-        basis = self.pop[0]
-        psi = self.matrix(basis)
-        seen, out = {self._skeleton(basis)}, []
-        for i, j in zip(*np.nonzero(np.triu(psi, 1))):
-            for op in self.structure.unary:
-                if op == psi[i, j]:
-                    continue
-                m = type(basis)([(0, int(i), int(j), int(op))] + list(basis.variations[1:]),
-                                basis.bits.copy())
-                sk = self._skeleton(m)
-                if sk in seen:
-                    continue
-                seen.add(sk)
-                rows = self._scaled_rows(m, n)
-                out += rows
-                self._sweep_k += [len(seen)] * len(rows)
-        if not self._room(SWEEP_EPOCHS, len(out)):
-            self.stats["sweep_skipped"] = len(out)
-            self._sweep_k = []
-            return []
-        return out
-
-    def _finish_sweep(self, members) -> None:
-        """The best flight of each swept form joins the population as a child does; with
-        ``sweep_keep``, only that many forms, the best by the target (ties: the sweep's
-        order)."""
-        best = {}
-        for k, m in zip(self._sweep_k, members):
-            if k not in best or self.target.better(m.f, best[k].f, m.cv, best[k].cv):
-                best[k] = m
-        forms = list(best.values())
-        keep = self.refine_cfg.sweep_keep
-        if keep and len(forms) > keep:
-            order = self.target.order(np.array([m.f for m in forms]), [m.cv for m in forms])
-            forms = [forms[int(i)] for i in order[:keep]]
-        for m in forms:
-            self._insert(m)
-        self.stats["swept_forms"] = self.stats.get("swept_forms", 0) + len(forms)
-        self._sweep_k = []
 
     def _finish_screen(self, members) -> None:
         """Each screened member takes the best of its flights when it beats its own value

@@ -32,10 +32,11 @@ from descent_fmus.synthesis.methods.settings import check_settings, setting
 __all__ = ["RefineConfig", "Refinement", "FILE_REFINE"]
 
 #: [choice] a problem file's refinement settings that differ from :class:`RefineConfig`'s
-#: (registered systems keep those): ``pick = "spread"`` and ``sweep = 8``, chosen on the
-#: suite's tuning half by the issue's goals (docs/methods/network_operator.md "How a default
-#: is chosen", "pick"; docs/benchmarks/suite.md "search16": the sweep judged over seeds 1-6)
-FILE_REFINE = {"pick": "spread", "sweep": 8}
+#: (registered systems keep those): ``pick = "spread"``, ``sweep = 8`` and
+#: ``sweep_products = 8``, chosen on the suite's tuning half by the issue's goals
+#: (docs/methods/network_operator.md "How a default is chosen", "pick"; docs/benchmarks/suite.md
+#: "search16": the sweep judged over seeds 1-6; "search21": the products over 12 seeds)
+FILE_REFINE = {"pick": "spread", "sweep": 8, "sweep_products": 8}
 
 #: [choice] Epochs of the structure search the flights left after the basic solution's ``basis``
 #: evaluations must hold for its CMA-ES to stop there (:meth:`RefineConfig.patience_for`): with
@@ -114,6 +115,14 @@ class RefineConfig:
                             "the others scaled as the screening does, and the best flight "
                             "of each joins the population (0 = off; default 8 in a "
                             "problem file, 0 for a registered system)", 0, 12)
+    sweep_products: int = setting(0, "with `sweep`: the sweep also flies every form one "
+                                     "added arc away from the tuned basic law where the arc "
+                                     "brings an input, through each unary operation, into a "
+                                     "product node it does not feed (a term of one input "
+                                     "times a function of another), this many times each; "
+                                     "such a form joins the population only when it beats "
+                                     "the tuned basic law (0 = off; default 8 in a problem "
+                                     "file, 0 for a registered system)", 0, 12)
     sweep_keep: int = setting(0, "of the swept forms (`sweep`), only this many join the "
                                  "population: the best by the target's value of their best "
                                  "flight (0 = every one)", 0, 10_000)

@@ -149,6 +149,28 @@ def test_the_sweep_flies_each_one_operation_neighbour_once_per_skeleton():
     assert RefineConfig().sweep == 0
 
 
+def test_sweep_products_adds_each_input_into_each_product_it_does_not_feed():
+    """``[refine] sweep_products = 4``: after the unary sweep's 10 forms (the same 80 flights
+    as without it), every input brought through each unary operation into a product node it
+    does not feed. Hand count on BASIC (node 5 = q1 x1, node 6 = q2 x2; unary set id, ssqrt,
+    sgn): x2 into node 5 and x1 into node 6, three operations each, 6 forms (q1 x1 f(x2), q2
+    x2 f(x1): no two share a skeleton), 4 flights each."""
+    plain = _swept_ga(0)._pending[1]
+    ga = _swept_ga(0, sweep_products=4)
+    members = ga._pending[1]
+    assert len(members) == 80 + 6 * 4
+    assert [m.variations for m in members[:80]] == [m.variations for m in plain]
+    added = [m.variations[0] for m in members[80::4]]
+    assert added == [(2, 1, 5, 1), (2, 1, 5, 4), (2, 1, 5, 10),
+                     (2, 0, 6, 1), (2, 0, 6, 4), (2, 0, 6, 10)]
+    # each is the basic law with one more factor in a product: q1 x1 x2 in place of q1 x1
+    psi = CODEC.apply(BASIC.psi, [added[0]])
+    assert form_skeleton(psi, BASIC.nx, len(BASIC.q), BASIC.outputs) == "+[*[x0,x1],c,x1]"
+    assert ga._sweep_k[80:] == [-(12 + k // 4) for k in range(24)]   # (the 10 before: 2..11)
+    with pytest.raises(SettingError, match="refine.sweep_products"):
+        RefineConfig(sweep_products=13)
+
+
 def test_sweep_keep_lets_only_the_best_swept_forms_join():
     """``[refine] sweep_keep = 2``: of the 10 swept forms of the test above, only the two
     whose best flight is lowest (the oracle: the toy values of the flights, grouped by form
