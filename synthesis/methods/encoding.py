@@ -141,13 +141,17 @@ class StructureCodec:
 
     IDENTITY = (0, 0, 0, 0)
 
-    def random(self, rng: np.random.Generator) -> tuple:
+    def random(self, rng: np.random.Generator, pick=None) -> tuple:
+        """A random variation; ``pick(table, n)``, when given, draws the kind (0-3, table
+        ``"kind"``) and the operation's index (``"unary"`` or ``"binary"``) instead of the
+        uniform draws (the GA's ``credit``)."""
         # weighted == 0 draws exactly as before the weighted arcs existed (pinned results)
-        kind = 4 if self.weighted and rng.random() < self.weighted else int(rng.integers(0, 4))
+        draw = pick or (lambda table, n: int(rng.integers(0, n)))
+        kind = 4 if self.weighted and rng.random() < self.weighted else draw("kind", 4)
         j = int(rng.integers(self.n_sources, self.size))
         i = int(rng.integers(0, j))
         ops = self.binary if kind == 1 else self.unary
-        return (kind, i, j, int(ops[int(rng.integers(0, len(ops)))]))
+        return (kind, i, j, int(ops[draw("binary" if kind == 1 else "unary", len(ops))]))
 
     def apply(self, psi: np.ndarray, variations) -> np.ndarray:
         """A copy of ``psi`` with the applicable variations applied in order."""

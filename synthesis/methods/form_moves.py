@@ -64,10 +64,11 @@ class FormMoves:
         self._pending_trim = []
 
     def _variation(self, m) -> tuple:
-        """A random structure variation for member ``m``; with ``arc_ops``, one that changes an
-        arc's operation (kind 0) is put on one of ``m``'s arcs, drawn uniformly (off: as
-        drawn, as before the setting existed)."""
-        v = self._credited() if self.cfg.credit else self.structure.random(self.rng)
+        """A random structure variation for member ``m`` (its kind and operation drawn by
+        their credit with ``credit``); with ``arc_ops``, one that changes an arc's operation
+        (kind 0) is put on one of ``m``'s arcs, drawn uniformly (both off: as drawn, as before
+        the settings existed)."""
+        v = self.structure.random(self.rng, self._credit_pick if self.cfg.credit else None)
         if self.cfg.arc_ops and v[0] == 0:
             psi = self.matrix(m)
             n = self.structure.n_sources
@@ -77,21 +78,10 @@ class FormMoves:
                 v = (0, int(i[k]), int(j[k]) + n, v[3])
         return v
 
-    def _credited(self) -> tuple:
-        """A random structure variation whose kind (0-3) and operation are each drawn, with
-        probability ``credit``, in proportion to their credit (:meth:`_credit`: the share of
-        draws whose child changed and entered the population, Laplace-smoothed), else
-        uniformly; the arc's nodes as :meth:`StructureCodec.random` draws them."""
-        s, rng = self.structure, self.rng
-        kind = 4 if s.weighted and rng.random() < s.weighted else self._credit_pick("kind", 4)
-        j = int(rng.integers(s.n_sources, s.size))
-        i = int(rng.integers(0, j))
-        ops = s.binary if kind == 1 else s.unary
-        op = ops[self._credit_pick("binary" if kind == 1 else "unary", len(ops))]
-        return (kind, i, j, int(op))
-
     def _credit_pick(self, table: str, n: int) -> int:
-        """An index below ``n``: by the credit of ``table`` with probability ``credit``, else
+        """A random variation's kind or operation index below ``n`` (``ga credit``): with
+        probability ``credit`` in proportion to the credit of ``table`` (:meth:`_credit`: the
+        share of draws whose child changed and entered the population, Laplace-smoothed), else
         uniform."""
         tries, wins = self.stats.get("credit", {}).get(table, ([0.0] * n, [0.0] * n))
         if self.rng.random() >= self.cfg.credit:
@@ -161,7 +151,7 @@ class FormMoves:
                 seen.add(sk)
                 rows = self._scaled_rows(m, times)
                 out += rows
-                self._sweep_k += [len(seen) * (-1 if kind == 2 else 1)] * len(rows)
+                self._sweep_k += [len(seen)] * len(rows)
         if not self._room(SWEEP_EPOCHS, len(out)):
             self.stats["sweep_skipped"] = len(out)
             self._sweep_k = []
@@ -170,15 +160,15 @@ class FormMoves:
 
     def _finish_sweep(self, members) -> None:
         """The best flight of each swept form joins the population as a child does -- a form
-        of ``sweep_products`` (its key negative) only when it beats the tuned basic law; with
-        ``sweep_keep``, only that many forms, the best by the target (ties: the sweep's
-        order)."""
+        of ``sweep_products`` (its move an added arc, kind 2) only when it beats the tuned
+        basic law; with ``sweep_keep``, only that many forms, the best by the target (ties:
+        the sweep's order)."""
         best, basis = {}, self.pop[0]
         for k, m in zip(self._sweep_k, members):
             if k not in best or self.target.better(m.f, best[k].f, m.cv, best[k].cv):
                 best[k] = m
-        forms = [m for k, m in best.items()
-                 if k > 0 or self.target.better(m.f, basis.f, m.cv, basis.cv)]
+        forms = [m for m in best.values() if m.variations[0][0] != 2
+                 or self.target.better(m.f, basis.f, m.cv, basis.cv)]
         keep = self.refine_cfg.sweep_keep
         if keep and len(forms) > keep:
             order = self.target.order(np.array([m.f for m in forms]), [m.cv for m in forms])

@@ -166,7 +166,22 @@ def test_sweep_products_adds_each_input_into_each_product_it_does_not_feed():
     # each is the basic law with one more factor in a product: q1 x1 x2 in place of q1 x1
     psi = CODEC.apply(BASIC.psi, [added[0]])
     assert form_skeleton(psi, BASIC.nx, len(BASIC.q), BASIC.outputs) == "+[*[x0,x1],c,x1]"
-    assert ga._sweep_k[80:] == [-(12 + k // 4) for k in range(24)]   # (the 10 before: 2..11)
+    assert ga._sweep_k[80:] == [12 + k // 4 for k in range(24)]      # (the 10 before: 2..11)
+    # the gate: every one-operation form is offered, a product form only when its best
+    # flight beats the tuned basic law (oracle: the toy values of the flights, grouped here)
+    from test_screen import _toy
+    F = _toy([ga.candidate(m).law for m in members])
+    best = {}
+    for k, f in zip(ga._sweep_k, F[:, 0]):
+        best[k] = min(f, best.get(k, np.inf))
+    basis = ga.pop[0].f[0]
+    want = 10 + sum(best[k] < basis for k in range(12, 18))
+    offered = []
+    ga._insert = lambda m: offered.append(m)
+    ga.tell(F)
+    # (the toy gives every product form 3.0 at best, the basis 1.0: none of the six joins;
+    # without the gate all 16 forms would)
+    assert len(offered) == want == ga.stats["swept_forms"] == 10
     with pytest.raises(SettingError, match="refine.sweep_products"):
         RefineConfig(sweep_products=13)
 
