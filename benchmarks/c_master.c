@@ -87,7 +87,7 @@ int main(int argc, char **argv)
     {
         const DmValues pv = {nr[0], rvr[0], rval[0], ni[0], ivr[0], ival[0]};
         const DmValues cv = {nr[1], rvr[1], rval[1], ni[1], ivr[1], ival[1]};
-        const DmOutputs ov = {no, 0, 0, out, NULL, NULL, o, NULL, NULL};
+        const DmOutputs ov = {no, 0, 0, out, NULL, NULL, o, NULL, NULL, 0, NULL, NULL};
         clock_gettime(CLOCK_MONOTONIC, &t0);
         for (int flight = 0; flight < flights; flight++)
             if (dm_fly(m, t_end, &pv, &cv, &ov, &steps, &stopped)) {

@@ -63,7 +63,8 @@ class _BatchValues(ctypes.Structure):
 class _Outputs(ctypes.Structure):
     _fields_ = [("nr", ctypes.c_size_t), ("ni", ctypes.c_size_t), ("nb", ctypes.c_size_t),
                 ("rvr", ctypes.c_void_p), ("ivr", ctypes.c_void_p), ("bvr", ctypes.c_void_p),
-                ("rval", ctypes.c_void_p), ("ival", ctypes.c_void_p), ("bval", ctypes.c_void_p)]
+                ("rval", ctypes.c_void_p), ("ival", ctypes.c_void_p), ("bval", ctypes.c_void_p),
+                ("n0", ctypes.c_size_t), ("vr0", ctypes.c_void_p), ("val0", ctypes.c_void_p)]
 
 
 def master_library(compiler: str | None = None) -> Path:
@@ -143,7 +144,10 @@ class _Fmu:
 class CMasterLoop:
     """A plant and a controller FMU (native, FMI 2.0 co-simulation) in closed loop under the C
     master; same ``run`` as :class:`~synthesis.fmi.closed_loop.ClosedLoop` for final outputs
-    (no recording, the wiring's step, Gauss-Seidel).
+    (no recording, the wiring's step, Gauss-Seidel).  ``initial``: plant Real outputs also
+    read at t = 0, after the first exchange of values, where a recording takes its first
+    sample (each result's ``initial``; what an objective's ``initial(...)`` reads without a
+    recording).
 
     Raises
     ------
@@ -156,9 +160,9 @@ class CMasterLoop:
     #: The closed-loop path, in one word (what a run reports).
     path = "native-c"
 
-    def __init__(self, wiring: Wiring, plant_fmu, controller_fmu):
+    def __init__(self, wiring: Wiring, plant_fmu, controller_fmu, initial=()):
         self._dll = _dll(master_library())
-        self.wiring, self._m = wiring, None
+        self.wiring, self._m, self.initial = wiring, None, tuple(initial)
         self._tmp = tempfile.mkdtemp(prefix="descent_c_master_")
         try:
             self._open(wiring, plant_fmu, controller_fmu)
@@ -186,11 +190,17 @@ class CMasterLoop:
                          "Integer": (ctypes.c_int * max(len(outs["Integer"]), 1))(),
                          "Boolean": (ctypes.c_int * max(len(outs["Boolean"]), 1))()}
         a = ctypes.addressof
+        for name in self.initial:
+            if p.var(name).causality != "output" or p.var(name).type != "Real":
+                raise KeyError(f"{p.md.modelName}: {name!r} is not a Real output (read at t = 0)")
+        vr["initial"] = _uint_array([p.var(name).valueReference for name in self.initial])
+        self._first_buf = (ctypes.c_double * max(len(self.initial), 1))()
         self._keep = vr
         self._outputs = _Outputs(len(outs["Real"]), len(outs["Integer"]), len(outs["Boolean"]),
                                  a(vr["Real"]), a(vr["Integer"]), a(vr["Boolean"]),
                                  a(self._out_buf["Real"]), a(self._out_buf["Integer"]),
-                                 a(self._out_buf["Boolean"]))
+                                 a(self._out_buf["Boolean"]), len(self.initial),
+                                 a(vr["initial"]), a(self._first_buf))
         self._steps, self._stopped = ctypes.c_long(), ctypes.c_int()
 
     def _wire(self, w: Wiring, p: _Fmu, c: _Fmu) -> None:
@@ -235,11 +245,12 @@ class CMasterLoop:
             raise FMUError(f"{self.wiring.name} (native-c): the loop is closed")
         return t_end
 
-    def _result(self, final: dict, stopped, steps: int, t_end: float, plant_values):
+    def _result(self, final: dict, stopped, steps: int, t_end: float, plant_values, first=()):
         return ClosedLoopResult(time=np.zeros(0), outputs={}, final=final,
                                 stopped=bool(stopped), steps=steps,
                                 t_final=min(steps * self.wiring.step, t_end),
-                                start=dict(plant_values or {}))
+                                start=dict(plant_values or {}),
+                                initial=dict(zip(self.initial, first)))
 
     def _values(self, role: str, values):
         """The ``_Values`` of a component's start values for this flight (kept on the layout,
@@ -276,7 +287,8 @@ class CMasterLoop:
         final = dict(zip(self._out_names["Real"], self._out_buf["Real"]))
         for kind in ("Integer", "Boolean"):
             final.update(zip(self._out_names[kind], map(int, self._out_buf[kind])))
-        return self._result(final, self._stopped.value, self._steps.value, t_end, plant_values)
+        return self._result(final, self._stopped.value, self._steps.value, t_end, plant_values,
+                            list(self._first_buf))
 
     def run_many(self, flights, stop_time: float | None = None) -> list:
         """Flights ``[(plant values, controller values), ...]`` from t = 0 in one
@@ -340,8 +352,10 @@ class CMasterLoop:
                 "Boolean": np.zeros((n, max(o.nb, 1)), np.int32)}
         steps = np.zeros(n, dtype=np.dtype(ctypes.c_long))
         stopped = np.zeros(n, dtype=np.int32)
+        first = np.zeros((n, max(o.n0, 1)))
         outs = _Outputs(o.nr, o.ni, o.nb, o.rvr, o.ivr, o.bvr, bufs["Real"].ctypes.data,
-                        bufs["Integer"].ctypes.data, bufs["Boolean"].ctypes.data)
+                        bufs["Integer"].ctypes.data, bufs["Boolean"].ctypes.data, o.n0, o.vr0,
+                        first.ctypes.data)
         pv, cv = (_BatchValues(*(x.ctypes.data for x in arrays)) for arrays in (plant, ctrl))
         failed, k = {}, 0
         while k < n:
@@ -353,6 +367,7 @@ class CMasterLoop:
         names = self._out_names
         ints = [(t, names[t], bufs[t].tolist()) for t in ("Integer", "Boolean") if names[t]]
         reals, steps_l, stopped_l = bufs["Real"].tolist(), steps.tolist(), stopped.tolist()
+        firsts = first.tolist()
         out = []
         for i, (pvals, _) in enumerate(flights):
             if i in failed:
@@ -361,7 +376,7 @@ class CMasterLoop:
             final = dict(zip(names["Real"], reals[i]))
             for _, nm, rows in ints:
                 final.update(zip(nm, rows[i]))
-            out.append(self._result(final, stopped_l[i], steps_l[i], t_end, pvals))
+            out.append(self._result(final, stopped_l[i], steps_l[i], t_end, pvals, firsts[i]))
         return out
 
     def close(self) -> None:

@@ -129,6 +129,10 @@ class ClosedLoopResult:
     start : dict
         The plant start values the run was flown from (the initial state; what an objective
         reads to judge the flight against its own conditions).
+    initial : dict
+        Plant outputs read at t = 0 after the first exchange of values, where a recording
+        takes its first sample, by name: those a loop was asked to read there without a
+        recording (:class:`~synthesis.fmi.c_master_loop.CMasterLoop`'s ``initial``).
     """
 
     time: np.ndarray
@@ -138,6 +142,7 @@ class ClosedLoopResult:
     steps: int
     t_final: float = 0.0
     start: dict = field(default_factory=dict)
+    initial: dict = field(default_factory=dict)
 
     def __getitem__(self, name):
         return self.outputs[name]

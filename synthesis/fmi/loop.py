@@ -13,7 +13,8 @@ Five paths fly a plant and a controller FMU in closed loop, each a class with th
   master, one call per flight.
 
 :func:`choose_path` says which path a wiring takes (the twins where built, unless ``native`` is
-False; the container if asked; the master when recording) and :func:`open_loop` opens it.
+False; the container if asked; the master when recording, or when outputs are asked for at
+t = 0 that only the C master reads without a recording) and :func:`open_loop` opens it.
 Every caller opens its loops here (``tests/fmi/test_closed_loop_factory.py`` checks that no other
 module constructs one of the five classes).
 """
@@ -74,12 +75,13 @@ def _native_path() -> str:
 
 
 def choose_path(wiring: Wiring, plant_fmu, controller_fmu, native: bool | None = None,
-                container: bool = False, record=()) -> tuple:
+                container: bool = False, record=(), initial=()) -> tuple:
     """``(path, (plant FMU, controller FMU))``: the path :func:`open_loop` takes and the FMUs
     it flies (the native twins on a native path).  ``native`` None takes the native path where
     the twins are built, True requires it (an error if they are missing), False never takes
     it; ``container`` asks for the container where no twins fly; ``record`` (plant outputs
-    recorded) needs a master.
+    recorded) needs a master; ``initial`` (plant outputs read at t = 0 only) the C master,
+    else a master that records them.
 
     Raises
     ------
@@ -93,21 +95,26 @@ def choose_path(wiring: Wiring, plant_fmu, controller_fmu, native: bool | None =
             f"{wiring.controller}.fmu in the folder native/ beside {plant_fmu} (python "
             f"build_fmus.py builds them where a C compiler exists)")
     if twins is not None:
-        return ("native-master" if record else _native_path()), twins
-    return ("container" if container and not record else "master"), (plant_fmu, controller_fmu)
+        path = "native-master" if record else _native_path()
+        return ("native-master" if initial and path != "native-c" else path), twins
+    return ("container" if container and not (record or initial) else "master"), \
+        (plant_fmu, controller_fmu)
 
 
 def open_loop(wiring: Wiring, plant_fmu, controller_fmu, path: str | None = None, *,
-              native: bool | None = None, container: bool = False, record=()) -> Loop:
+              native: bool | None = None, container: bool = False, record=(),
+              initial=()) -> Loop:
     """The closed loop of ``wiring`` on these FMUs, loaded once: the path :func:`choose_path`
     takes, or ``path`` (one of :data:`PATHS`) on exactly the FMUs given (a benchmark comparing
-    paths, the twins given as such).  ``record``: the plant outputs a master records."""
+    paths, the twins given as such).  ``record``: the plant outputs a master records;
+    ``initial``: plant outputs wanted at t = 0 only (the C master reads them there, its
+    results' ``initial``; a master records them)."""
     if path is None:
         path, (plant_fmu, controller_fmu) = choose_path(wiring, plant_fmu, controller_fmu,
-                                                        native, container, record)
+                                                        native, container, record, initial)
     if path == "native-c":
         from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop
-        return CMasterLoop(wiring, plant_fmu, controller_fmu)
+        return CMasterLoop(wiring, plant_fmu, controller_fmu, initial=initial)
     if path == "native-container":
         from descent_fmus.synthesis.fmi.native_loop import NativeContainerLoop
         return NativeContainerLoop(wiring, plant_fmu, controller_fmu)
@@ -116,6 +123,7 @@ def open_loop(wiring: Wiring, plant_fmu, controller_fmu, path: str | None = None
         return ContainerLoop(wiring, plant_fmu, controller_fmu)
     if path not in ("master", "native-master"):
         raise ValueError(f"unknown closed-loop path {path!r}; known: {', '.join(PATHS)}")
-    loop = ClosedLoop(wiring, plant_fmu, controller_fmu, record=record)
+    loop = ClosedLoop(wiring, plant_fmu, controller_fmu,
+                      record=list(record) + [n for n in initial if n not in record])
     loop.path = path
     return loop

@@ -227,6 +227,9 @@ class SynthesisProblem:
     record : tuple of str
         Plant outputs recorded at every communication point of every flight (for objectives
         over the whole flight); empty = only the final outputs are read (fastest).
+    initial : tuple of str
+        Plant outputs read at t = 0 only (an objective's ``initial(...)`` of them): the C
+        master reads them there (no recording); any other loop records them.
     plant_fmu, controller_fmu : str or None
         FMU files; None = ``<wiring.plant>.fmu`` / ``<wiring.controller>.fmu`` in the FMU folder.
         A relative path is taken relative to the FMU folder.
@@ -265,6 +268,7 @@ class SynthesisProblem:
     q_bits: tuple = DEFAULT_Q_BITS
     report: Report = field(default_factory=Report)
     record: tuple = ()
+    initial: tuple = ()
     plant_fmu: str | None = None
     controller_fmu: str | None = None
     source: str = ""
@@ -315,7 +319,8 @@ class SynthesisProblem:
     def load(self, plant_fmu, controller_fmu):
         """This problem's closed loop on these FMUs, loaded once (the path its runner chooses;
         a :class:`synthesis.fmi.loop.Loop`)."""
-        return self.runner.load(self.wiring, plant_fmu, controller_fmu, record=self.record)
+        return self.runner.load(self.wiring, plant_fmu, controller_fmu, record=self.record,
+                                initial=self.initial)
 
     def fly(self, loop, law) -> Outcome:
         """``law`` flown in ``loop`` (:meth:`load`) from this problem's initial states (or

@@ -17,8 +17,9 @@ __all__ = ["FileObjective", "FileObjectives", "FlightExpression"]
 @dataclass(frozen=True)
 class FlightExpression:
     """One expression evaluated on one flight: each of its reductions (``final`` from the
-    plant's final outputs, the others from the recorded signals), plus ``unmet_stop_penalty``
-    for a flight the stop condition never ended."""
+    plant's final outputs, ``initial`` from the outputs the loop read at t = 0 when it read
+    them there, the others from the recorded signals), plus ``unmet_stop_penalty`` for a
+    flight the stop condition never ended."""
 
     expression: Expression
     law_outputs: tuple        # (signal name "u1", controller output "u[1]") pairs
@@ -33,6 +34,8 @@ class FlightExpression:
             if term.function == "final":
                 point = {s: _final(r, s, law) for s in term.signals}
                 values.append(expr.at_point(k, point, special))
+            elif term.function == "initial" and r.initial and set(term.signals) <= r.initial.keys():
+                values.append(expr.at_point(k, {s: r.initial[s] for s in term.signals}, special))
             else:
                 recorded = {s: _recorded(r, s, law) for s in term.signals}
                 values.append(expr.reduce(k, np.asarray(r.time, dtype=float), recorded,

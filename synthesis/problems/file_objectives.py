@@ -81,10 +81,16 @@ def read_constraints(rd: Reader, data, plant, ctrl, signals, stop) -> list:
 
 
 def recorded_signals(exprs, ctrl: ControllerInfo) -> tuple:
-    """The plant outputs named inside every reduction but ``final`` (read from the final outputs),
-    then ``ctrl.u[k]`` of the law outputs named in any (they switch recording on); empty when
-    every reduction is a ``final`` of plant outputs: the fastest flights, recorded at no point."""
+    """``(record, initial)``.  ``record``: the plant outputs named inside every reduction but
+    ``final`` (read from the final outputs), then ``ctrl.u[k]`` of the law outputs named in any
+    (they switch recording on).  When the only such reductions are ``initial`` of plant
+    outputs, those outputs are ``initial`` instead (read at t = 0, recorded at no point where
+    the loop can: the C master) and ``record`` is empty.  Both empty when every reduction is a
+    ``final`` of plant outputs: the fastest flights."""
     law = ctrl.law_signals
     plant = {sig for e in exprs for fn, sig in e.reductions if fn != "final" and sig not in law}
     controller = {"ctrl." + law[sig] for e in exprs for _, sig in e.reductions if sig in law}
-    return tuple(sorted(plant)) + tuple(sorted(controller))
+    if not controller and all(fn in ("final", "initial") for e in exprs
+                              for fn, _ in e.reductions):
+        return (), tuple(sorted(plant))
+    return tuple(sorted(plant)) + tuple(sorted(controller)), ()

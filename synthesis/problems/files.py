@@ -188,7 +188,8 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         objective_names=tuple(names), penalty=tuple(penalty), basic_law=law, **recipe,
         constraints=tuple(constraints), target=read_target(rd, data, names),
         baselines=read_baselines(rd, data, path, law), unary=ops["unary"], binary=ops["binary"],
-        q_bits=q_bits, record=recorded_signals(exprs, ctrl), plant_fmu=str(plant.path),
+        q_bits=q_bits, **dict(zip(("record", "initial"), recorded_signals(exprs, ctrl))),
+        plant_fmu=str(plant.path),
         controller_fmu=str(ctrl.path), runner=runner, input_scaling=ctrl.scaling,
         source=f"file {path.name} sha256:{digest}")
 

@@ -50,23 +50,24 @@ class Runner:
     race: Race | None = None
     native: bool | None = None
 
-    def choose(self, wiring: Wiring, plant_fmu, controller_fmu, record=()) -> tuple:
+    def choose(self, wiring: Wiring, plant_fmu, controller_fmu, record=(), initial=()) -> tuple:
         """``(path, (plant FMU, controller FMU))``: the path :meth:`load` takes, in one word,
         and the FMUs it flies (:func:`synthesis.fmi.loop.choose_path`)."""
         return choose_path(wiring, plant_fmu, controller_fmu, self.native, self.container,
-                           record)
+                           record, initial)
 
-    def load(self, wiring: Wiring, plant_fmu, controller_fmu, record=()) -> Loop:
-        """The loop the flights use, loaded once per process (recording needs the master); its
-        ``path`` names it."""
+    def load(self, wiring: Wiring, plant_fmu, controller_fmu, record=(), initial=()) -> Loop:
+        """The loop the flights use, loaded once per process (recording needs the master;
+        ``initial``, outputs read at t = 0 only, the C master or a recording); its ``path``
+        names it."""
         return open_loop(wiring, plant_fmu, controller_fmu, native=self.native,
-                         container=self.container, record=record)
+                         container=self.container, record=record, initial=initial)
 
     def flights(self, loop: Loop, problem, law) -> list:
         """The flights of ``law`` (all initial states, or fewer if a race stopped it); each
         result carries its start values (``result.start``)."""
         sv = _law_values(problem, law)
-        record = bool(problem.record)
+        record = records(loop, problem)
         states = problem.initial_states
         stops = set(self.race.sizes) if self.race is not None else set()
         results = []
@@ -80,7 +81,7 @@ class Runner:
     def batches(self, loop: Loop, problem) -> bool:
         """Whether :meth:`batch_flights` flies ``problem``'s laws on ``loop`` (a loop with
         ``run_many``, no racing, no recording): one C call a batch, the GIL released in it."""
-        return hasattr(loop, "run_many") and self.race is None and not problem.record
+        return hasattr(loop, "run_many") and self.race is None and not records(loop, problem)
 
     def batch_flights(self, loop: Loop, problem, laws) -> list | None:
         """:meth:`flights` of each of ``laws`` in one call of the loop's ``run_many`` (the C
@@ -108,6 +109,12 @@ class Runner:
             mine = results[k:k + m]
             out[i] = next((r for r in mine if isinstance(r, BaseException)), mine)
         return out
+
+
+def records(loop: Loop, problem) -> bool:
+    """Whether ``problem``'s flights on ``loop`` record: it names signals to record, or
+    outputs at t = 0 (``initial``) that the loop does not read there itself."""
+    return bool(problem.record) or not set(problem.initial) <= set(getattr(loop, "initial", ()))
 
 
 def _law_values(problem, law) -> StartValues:

@@ -379,7 +379,8 @@ class DaskCluster(Backend):
 def flight_path(problem, fmus) -> str:
     """The closed-loop path the problem's runner takes with these FMUs, in one word
     (``native-c``, ``native-container``, ``native-master``, ``container``, ``master``)."""
-    return problem.runner.choose(problem.wiring, *fmus, record=problem.record)[0]
+    return problem.runner.choose(problem.wiring, *fmus, record=problem.record,
+                                 initial=problem.initial)[0]
 
 
 def _shipment(problem, fmus, read) -> list:

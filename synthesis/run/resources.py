@@ -47,7 +47,7 @@ def memory_estimate(problem, workers: int) -> dict:
     member = _MEMBER + bits * _BIT + ga.lchr * _VARIATION
     m = len(problem.objective_names)
     steps = problem.wiring.stop_time / problem.wiring.step
-    signals = len(problem.record) + len(problem.wiring.to_controller) + \
+    signals = len(problem.record) + len(problem.initial) + len(problem.wiring.to_controller) + \
         len(problem.wiring.to_plant) + 1
     flights = budget.flights or (ga.population + budget.generations * 4 * ga.crossovers)
     return {
@@ -56,7 +56,7 @@ def memory_estimate(problem, workers: int) -> dict:
         "flown laws": flights * _FINGERPRINT,
         "cache": min(flights, CACHE_SIZE) * _OUTCOME,
         "recorded flights": (workers * len(problem.initial_states) * steps * signals
-                             * _RECORDED if problem.record else 0),
+                             * _RECORDED if problem.record or problem.initial else 0),
         "workers": (workers - 1) * _WORKER if workers > 1 else 0,
     }
 

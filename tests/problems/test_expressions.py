@@ -294,7 +294,7 @@ def test_the_files_objectives_are_the_pinned_ones(hopper_dir, fmu_dir, tmp_path)
     now = load_problem_file(hopper_dir / "hopper.toml", fmu_dir=fmu_dir)
     then = load_problem_file(_hopper_with(hopper_dir, tmp_path, BEFORE[0][0], BEFORE[1][0]),
                              fmu_dir=fmu_dir)
-    assert now.record == () and then.record == ("m",)
+    assert now.record == () and (then.record, then.initial) == ((), ("m",))
     laws = [now.basic(), now.basic().with_q([-12.0, -3.9, 0.32])]
     with Evaluator(now, fmu_dir) as a, Evaluator(then, fmu_dir) as b:
         Fa, Fb = a.evaluate(laws).F, b.evaluate(laws).F
@@ -327,18 +327,23 @@ def _hopper_with(hopper_dir, tmp_path, *flights):
     return path
 
 
-@pytest.mark.parametrize("flights,record", [
-    (("abs(final(v))", "final(fuel)"), ()),                               # the tutorial as is
-    (("abs(final(v))", "initial(m) - final(m)"), ("m",)),
-    (("final(abs(v) + 10*h)", "final(m)"), ()),                           # finals: no recording
-    (("integral(h**2 + 0.1*u1**2)", "final(m)"), ("h", "ctrl.u[1]")),
-    (("max(sqrt(h**2 + v**2))", "mean(v if v > 0 else 0)"), ("h", "v")),
-    (("final(u1)", "final(h)"), ("ctrl.u[1]",)),                          # a law output
+@pytest.mark.parametrize("flights,record,initial", [
+    (("abs(final(v))", "final(fuel)"), (), ()),                           # the tutorial as is
+    # values at t = 0 only: read there, no recording where the loop can (the C master)
+    (("abs(final(v))", "initial(m) - final(m)"), (), ("m",)),
+    (("initial(h) + final(h)", "initial(m) - final(m)"), (), ("h", "m")),
+    # ... unless something else records: then they are recorded too
+    (("max(h)", "initial(m) - final(m)"), ("h", "m"), ()),
+    (("final(u1)", "initial(m)"), ("m", "ctrl.u[1]"), ()),
+    (("final(abs(v) + 10*h)", "final(m)"), (), ()),                       # finals: no recording
+    (("integral(h**2 + 0.1*u1**2)", "final(m)"), ("h", "ctrl.u[1]"), ()),
+    (("max(sqrt(h**2 + v**2))", "mean(v if v > 0 else 0)"), ("h", "v"), ()),
+    (("final(u1)", "final(h)"), ("ctrl.u[1]",), ()),                      # a law output
 ])
 def test_the_problem_records_what_its_reductions_need(hopper_dir, fmu_dir, tmp_path, flights,
-                                                      record):
+                                                      record, initial):
     problem = load_problem_file(_hopper_with(hopper_dir, tmp_path, *flights), fmu_dir=fmu_dir)
-    assert problem.record == record
+    assert (problem.record, problem.initial) == (record, initial)
 
 
 def test_reentry_file_records_nothing(fmu_dir):

@@ -139,6 +139,16 @@ def test_di_problem_value_of_the_basic_law(built, fmu_dir):
     assert excess == pytest.approx(max(np.subtract(vals, ref["per_start"])), rel=1e-9)
     assert time > 1.5 * ref["mean"]                  # the PD law is far from time-optimal
     assert suite.law_details("mintime-di", p, p.basic(), fmu_dir) == "reaches 10/10 starts"
+    # the excess's initial(tgo) is read at t = 0, not recorded: the flights take the C master
+    # where it is built (the values above come from that path)
+    from descent_fmus.synthesis.fmi.c_master_loop import MasterUnavailable, master_library
+    from descent_fmus.synthesis.run.backends import flight_path
+    assert (p.record, p.initial) == ((), ("tgo",))
+    try:
+        master_library()
+    except MasterUnavailable:
+        return
+    assert flight_path(p, p.fmu_paths(fmu_dir)) == "native-c"
 
 
 def test_di_reference_is_fair_to_a_sampled_law(built, fmu_dir):

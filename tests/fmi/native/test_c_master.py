@@ -191,3 +191,35 @@ def test_a_batch_flies_as_its_flights_one_by_one_failures_in_the_middle(fmu_dir)
     assert isinstance(got[8], ValueError) and "must be finite" in str(got[8])
     _same(mixed[0].final, want[0].final)
     _same(mixed[2].final, alone.final)
+
+
+def test_outputs_at_t0_are_a_recordings_first_sample(fmu_dir):
+    # Oracle: the Python master's recording on the same native FMUs -- its first sample is
+    # taken at t = 0 after the first exchange of values; the C master's ``initial`` outputs
+    # (read there without a recording, an objective's initial(...)) must equal it bit for bit,
+    # by run() and by run_many(), over several initial states; the final outputs are unchanged
+    from descent_fmus.synthesis.registry import get_problem
+    problem = get_problem("reentry")
+    twins = _twins_or_skip(problem, fmu_dir)
+    law = problem.basic()
+    states = problem.initial_states[:3]
+    names = ("h", "load", "aero_load")
+    with ClosedLoop(problem.wiring, *twins, record=list(names)) as py:
+        want = [py.run(s, law.start_values(), record=True) for s in states]
+    with CMasterLoop(problem.wiring, *twins, initial=names) as cm, \
+            CMasterLoop(problem.wiring, *twins) as plain:
+        one = [cm.run(s, StartValues.of_law(law)) for s in states]
+        many = cm.run_many([(s, StartValues.of_law(law)) for s in states])
+        bare = plain.run(states[0], StartValues.of_law(law))
+    for w, a, b in zip(want, one, many):
+        first = {n: float(w.outputs[n][0]) for n in names}
+        assert first["h"] != w.final["h"]       # a start, not an end
+        _same(a.initial, first)
+        _same(b.initial, first)
+        _same(a.final, w.final)
+    assert bare.initial == {} and bare.final == one[0].final
+    with pytest.raises(KeyError, match="no variable 'nope'"):
+        CMasterLoop(problem.wiring, *twins, initial=("nope",))
+    parameter = next(iter(states[0]))              # a start value, not an output
+    with pytest.raises(KeyError, match=f"{parameter!r} is not a Real output"):
+        CMasterLoop(problem.wiring, *twins, initial=(parameter,))

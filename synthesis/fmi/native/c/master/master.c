@@ -6,7 +6,8 @@
  * call for call: each component is reset, its start values set (Reals then Integers), set up
  * (no tolerance, stop time defined), initialised; then on the grid t_k = k h, k = 0 .. n with
  * n = ceil(t_end / h - 1e-9): read the plant outputs y(t_k), set them as controller inputs,
- * read u_k = phi(y(t_k)), set it as plant input; read the stop output every check_every steps
+ * read u_k = phi(y(t_k)), set it as plant input (at k = 0 then read the plant outputs asked
+ * for at the start, DmOutputs.n0); read the stop output every check_every steps
  * (and at k = n) and end the flight when its condition holds; else doStep the plant, then the
  * controller, over [t_k, t_k + min(h, t_end - t_k)].  The same FMI calls in the same order give
  * the same numbers bit for bit.
@@ -263,6 +264,10 @@ DM_EXPORT int dm_fly(DmMaster *m, double t_end, const DmValues *plant, const DmV
             say(m, "exchanging values at t = %.17g s failed", t);
             return 1;
         }
+        if (k == 0 && out->n0 && p->get_real(p->c, out->vr0, out->n0, out->val0) > fmi2Warning) {
+            say(m, "reading the plant's outputs at t = 0 failed");
+            return 1;
+        }
         if (m->stop_type && (k % m->check_every == 0 || k == n)) {
             if (stop_holds(m, &holds)) {
                 say(m, "reading the stop output at t = %.17g s failed", t);
@@ -303,7 +308,8 @@ static void batch_values(const DmBatchValues *b, long k, long r0, long i0, DmVal
 
 /* Flights first .. n-1 of a batch, one dm_fly each on the same instances (reset by each
  * flight, as between two dm_fly calls): flight k's start values from *plant and *ctrl (see
- * DmBatchValues), its outputs at row k of out's arrays (out->nr Reals a row, and so on), its
+ * DmBatchValues), its outputs at row k of out's arrays (out->nr Reals a row, and so on; the
+ * n0 Reals at t = 0 at row k of val0), its
  * steps and stop flag at steps[k], stopped[k].  Returns n when every flight succeeded; else
  * the index of the failed flight, dm_message() saying why (the caller goes on from the next). */
 DM_EXPORT long dm_fly_many(DmMaster *m, long first, long n, double t_end,
@@ -319,6 +325,7 @@ DM_EXPORT long dm_fly_many(DmMaster *m, long first, long n, double t_end,
         o.rval = out->rval + (size_t)k * out->nr;
         o.ival = out->ival + (size_t)k * out->ni;
         o.bval = out->bval + (size_t)k * out->nb;
+        o.val0 = out->val0 + (size_t)k * out->n0;
         batch_values(plant, k, pr, pi, &pv);
         batch_values(ctrl, k, cr, ci, &cv);
         pr += plant->nr[k], pi += plant->ni[k], cr += ctrl->nr[k], ci += ctrl->ni[k];

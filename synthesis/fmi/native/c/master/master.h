@@ -19,13 +19,18 @@ typedef struct {
     const fmi2Integer *ival;
 } DmValues;
 
-/* What a flight reads at its end: plant outputs of each type, written to caller's buffers. */
+/* What a flight reads at its end: plant outputs of each type, written to caller's buffers;
+ * and n0 plant Reals read at t = 0 after the first exchange of values (where a recording takes
+ * its first sample), written to val0 (n0 = 0: none). */
 typedef struct {
     size_t nr, ni, nb;
     const fmi2ValueReference *rvr, *ivr, *bvr;
     fmi2Real *rval;
     fmi2Integer *ival;
     fmi2Boolean *bval;
+    size_t n0;
+    const fmi2ValueReference *vr0;
+    fmi2Real *val0;
 } DmOutputs;
 
 /* Start values of a batch of flights (dm_fly_many): flight k sets nr[k] Reals and ni[k]
