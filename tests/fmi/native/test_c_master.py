@@ -102,6 +102,16 @@ def test_no_compiler_falls_back_to_the_container(fmu_dir, monkeypatch, tmp_path)
         assert loop.path == "native-container"
     finally:
         loop.close()
+    # outputs wanted at t = 0 only: the container cannot read them there, so the master on the
+    # twins records them (the flights then record: runner.records)
+    r = runner_mod.Runner()
+    assert r.choose(problem.wiring, *fmus, initial=("h",))[0] == "native-master"
+    loop = r.load(problem.wiring, *fmus, initial=("h",))
+    try:
+        assert loop.path == "native-master" and "h" in loop.record
+        assert runner_mod.records(loop, problem.with_(initial=("h",)))
+    finally:
+        loop.close()
 
 
 def test_bad_input_and_failing_flights(fmu_dir, tmp_path):
