@@ -190,10 +190,11 @@ class CMasterLoop:
                          "Integer": (ctypes.c_int * max(len(outs["Integer"]), 1))(),
                          "Boolean": (ctypes.c_int * max(len(outs["Boolean"]), 1))()}
         a = ctypes.addressof
-        for name in self.initial:
-            if p.var(name).causality != "output" or p.var(name).type != "Real":
-                raise KeyError(f"{p.md.modelName}: {name!r} is not a Real output (read at t = 0)")
-        vr["initial"] = _uint_array([p.var(name).valueReference for name in self.initial])
+        first = [p.var(name) for name in self.initial]
+        for v in first:
+            if v.causality != "output" or v.type != "Real":
+                raise KeyError(f"{p.md.modelName}: {v.name!r} is not a Real output (read at t = 0)")
+        vr["initial"] = _uint_array([v.valueReference for v in first])
         self._first_buf = (ctypes.c_double * max(len(self.initial), 1))()
         self._keep = vr
         self._outputs = _Outputs(len(outs["Real"]), len(outs["Integer"]), len(outs["Boolean"]),
@@ -367,7 +368,7 @@ class CMasterLoop:
         names = self._out_names
         ints = [(t, names[t], bufs[t].tolist()) for t in ("Integer", "Boolean") if names[t]]
         reals, steps_l, stopped_l = bufs["Real"].tolist(), steps.tolist(), stopped.tolist()
-        firsts = first.tolist()
+        firsts = first.tolist() if o.n0 else [()] * n     # none asked for: nothing to read
         out = []
         for i, (pvals, _) in enumerate(flights):
             if i in failed:

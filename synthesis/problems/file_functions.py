@@ -34,7 +34,7 @@ class FlightExpression:
             if term.function == "final":
                 point = {s: _final(r, s, law) for s in term.signals}
                 values.append(expr.at_point(k, point, special))
-            elif term.function == "initial" and r.initial and set(term.signals) <= r.initial.keys():
+            elif term.function == "initial" and all(s in r.initial for s in term.signals):
                 values.append(expr.at_point(k, {s: r.initial[s] for s in term.signals}, special))
             else:
                 recorded = {s: _recorded(r, s, law) for s in term.signals}

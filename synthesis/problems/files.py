@@ -176,8 +176,8 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
     signals = plant.outputs | set(ctrl.law_signals)
     objectives, names, penalty = read_objectives(rd, data, plant, ctrl, signals, stop)
     constraints = read_constraints(rd, data, plant, ctrl, signals, stop)
-    exprs = [ob.flight.expression for ob in objectives] + \
-        [c.flight.expression for c in constraints]
+    record, initial = recorded_signals([ob.flight.expression for ob in objectives] +
+                                       [c.flight.expression for c in constraints], ctrl)
     law = _basic_law(rd, data, path, ctrl)
     recipe, q_bits, ops = read_recipe(rd, data, law)
     digest = hashlib.sha256(raw).hexdigest()[:16]
@@ -188,8 +188,7 @@ def load_problem_file(path, fmu_dir=None) -> SynthesisProblem:
         objective_names=tuple(names), penalty=tuple(penalty), basic_law=law, **recipe,
         constraints=tuple(constraints), target=read_target(rd, data, names),
         baselines=read_baselines(rd, data, path, law), unary=ops["unary"], binary=ops["binary"],
-        q_bits=q_bits, **dict(zip(("record", "initial"), recorded_signals(exprs, ctrl))),
-        plant_fmu=str(plant.path),
+        q_bits=q_bits, record=record, initial=initial, plant_fmu=str(plant.path),
         controller_fmu=str(ctrl.path), runner=runner, input_scaling=ctrl.scaling,
         source=f"file {path.name} sha256:{digest}")
 
