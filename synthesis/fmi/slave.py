@@ -4,9 +4,20 @@
 folder, log and callbacks); :class:`FMUError` is what a failed FMU call raises, with what the FMU
 said.  The closed loops (:mod:`.closed_loop`, :mod:`.container_loop`) and the tests load their
 FMUs here.
+
+A pythonfmu 0.7 binary loaded as it is (a user's FMU built by pythonfmu alone: this package's
+own pythonfmu FMUs carry a C wrapper that does the same) writes to freed memory when the process
+exits: the C++ exit handler destroys its static interpreter-state pointer, then the library's
+destructor function (``finalizePythonInterpreter``) releases the stale pointer again, which glibc
+may report as ``corrupted double-linked list``.  :func:`load_slave` therefore has that function
+called once at this interpreter's exit (:func:`_release_pythonfmu_state`), before the C exit
+handlers: the state is released while the pointer is valid, and both later releases find it null.
 """
 from __future__ import annotations
 
+import atexit
+import ctypes
+import os
 import shutil
 
 from fmpy import calloc, extract, free, read_model_description
@@ -78,7 +89,35 @@ def load_slave(path, instance_name: str, log: list | None = None,
     callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
     callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
     slave.instantiate(callbacks=callbacks, loggingOn=logging_on)
+    _release_pythonfmu_state(slave.dll)
     return LoadedFMU(slave, md, unzipdir, log, callbacks)
+
+
+#: The pythonfmu binaries loaded as they are in this process (paths), each released at exit.
+_PYTHONFMU_BINARIES: set = set()
+
+
+def _release_pythonfmu_state(dll) -> None:
+    """Have ``dll``'s ``finalizePythonInterpreter`` called at this interpreter's exit, if it
+    is a pythonfmu binary (see the module docstring; other libraries have no such function)."""
+    if not hasattr(dll, "finalizePythonInterpreter") or dll._name in _PYTHONFMU_BINARIES:
+        return
+    if not _PYTHONFMU_BINARIES:
+        atexit.register(_release_all)
+    _PYTHONFMU_BINARIES.add(dll._name)
+
+
+def _release_all() -> None:
+    """At exit: ``finalizePythonInterpreter`` of each pythonfmu binary still loaded (one the
+    host unloaded is not called; RTLD_NOLOAD finds a loaded library without loading it)."""
+    for name in sorted(_PYTHONFMU_BINARIES):
+        try:
+            lib = ctypes.CDLL(name, mode=os.RTLD_NOLOAD)
+        except OSError:
+            continue
+        lib.finalizePythonInterpreter.restype = None
+        lib.finalizePythonInterpreter()
+    _PYTHONFMU_BINARIES.clear()
 
 
 class CFunctions:

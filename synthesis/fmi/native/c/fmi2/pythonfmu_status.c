@@ -13,7 +13,18 @@
    parameter went unseen by a plain `fmpy simulate`.  This library instantiates the pythonfmu
    FMU with loggingOn = true and passes on to the host every message of status fmi2Warning or
    above, and the others only when the host asked for logging (loggingOn or
-   fmi2SetDebugLogging), as Reference-FMUs do.  The messages themselves are unchanged. */
+   fmi2SetDebugLogging), as Reference-FMUs do.  The messages themselves are unchanged.
+
+   pythonfmu 0.7 also writes to freed memory when its library is unloaded (at the host's exit,
+   or when the host unloads it): a static std::shared_ptr to its interpreter state is first
+   destroyed by the C++ exit handler, then set to nullptr by the library's destructor function
+   (finalizePythonInterpreter), which releases the stale pointer's control block a second time:
+   it decrements a count inside a freed 128-byte block, which glibc may report at exit as
+   "corrupted double-linked list" (valgrind: an invalid read in finalizePythonInterpreter
+   under _dl_fini).  This library calls finalizePythonInterpreter itself first, from an exit
+   handler registered after the pythonfmu binary is loaded (so it runs before that binary's
+   own), while the pointer is still valid: the state is released once and the pointer is
+   null, so both later releases do nothing. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
 #include <stdarg.h>
@@ -24,6 +35,28 @@
 #include "fmi2Functions.h"
 
 static void *real_library = NULL;
+static void (*release_state)(void) = NULL;
+
+/* The exit handler: pythonfmu's own release of its interpreter state, while it is valid (see
+   the top of this file). */
+static void release_python_state(void)
+{
+    void (*release)(void) = release_state;
+    release_state = NULL;
+    if (release != NULL)
+        release();
+}
+
+/* Registers release_python_state once the pythonfmu binary is loaded: exit handlers run in the
+   reverse order of their registration, so it runs before the pythonfmu binary's (at exit, or
+   when the host unloads this library, which keeps the pythonfmu binary loaded).  A pythonfmu
+   without finalizePythonInterpreter needs nothing. */
+static void release_first(void)
+{
+    *(void **)(&release_state) = dlsym(real_library, "finalizePythonInterpreter");
+    if (release_state != NULL && atexit(release_python_state) != 0)
+        release_state = NULL;
+}
 
 /* The pythonfmu binary beside this library: same path, ".so" -> ".pythonfmu.so". */
 static void *library(void)
@@ -43,6 +76,8 @@ static void *library(void)
     real_library = dlopen(path, RTLD_NOW | RTLD_LOCAL);
     if (real_library == NULL)
         fprintf(stderr, "%s: cannot load %s: %s\n", self.dli_fname, path, dlerror());
+    else
+        release_first();
     return real_library;
 }
 
