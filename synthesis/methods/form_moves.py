@@ -158,6 +158,24 @@ class FormMoves:
             return []
         return out
 
+    def _resweep_due(self, best) -> bool:
+        """Whether a stalled search sweeps the neighbourhood of its best law ``best`` (the
+        epoch's new basis) instead of restarting (``refine resweep``): sweeps left, ``best``'s
+        form not swept before and flights left for two epochs (the sweep counted as one; one
+        that turns out not to fit when its forms are counted is not flown, and the search goes
+        on to its next stall).  The sweep starts when the epoch's population is flown."""
+        n = self.refine_cfg.resweep
+        if not n or not self.refine_cfg.sweep or self.stats.get("resweeps", 0) >= n \
+                or not self._room(SWEEP_EPOCHS + 1):
+            return False
+        centres = self.stats.setdefault("sweep_centres", [])
+        sk = self._skeleton(best)
+        if sk in centres:
+            return False
+        centres.append(sk)
+        self._resweep = True
+        return True
+
     def _finish_sweep(self, members) -> None:
         """The best flight of each swept form joins the population as a child does -- a form
         of ``sweep_products`` (its move an added arc, kind 2) only when it beats the tuned

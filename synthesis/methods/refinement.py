@@ -126,6 +126,13 @@ class RefineConfig:
     sweep_keep: int = setting(0, "of the swept forms (`sweep`), only this many join the "
                                  "population: the best by the target's value of their best "
                                  "flight (0 = every one)", 0, 10_000)
+    resweep: int = setting(0, "with `sweep`: times a stalled structure search (ga "
+                              "restart_epochs) sweeps the neighbourhood of its best law, as "
+                              "`sweep` does the tuned basic law's, before it restarts: the "
+                              "best law becomes the basis, its neighbours are flown and join "
+                              "the population, and the halving tunes them at once; a best "
+                              "law swept before, or no flights for the sweep and an epoch "
+                              "after it, restarts as ever (0 = off)", 0, 100)
     screen: int = setting(0, "new forms screened after every epoch, before the halving: "
                              "each gets `screen_evals` flights of a search over the scale of "
                              "the constants its variations touched (and of the others), and "

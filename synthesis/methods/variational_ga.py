@@ -126,6 +126,7 @@ class VariationalGA(FormSearch, FormMoves, Method):
         self._template = None          # the decoding law after a rescale (its dict)
         self._origin = None            # (matrix, bits) of the tuned basic solution
         self._elite = None             # islands: the run's best law while an island runs
+        self._resweep = False          # the epoch flown next sweeps its basis (``resweep``)
 
     def _initial_members(self) -> list:
         params, rng, structure, lchr = self.params, self.rng, self.structure, self._lchr
@@ -239,6 +240,12 @@ class VariationalGA(FormSearch, FormMoves, Method):
         if phase == "rescale":          # the sweep waited for the new coordinates
             self._start_sweep()
         if phase == "epoch":
+            if self._resweep:                 # a stalled search: its best law's neighbours
+                self._resweep = False
+                self._start_sweep()
+                if self._pending is not None:
+                    self.stats["resweeps"] = self.stats.get("resweeps", 0) + 1
+                    return
             self._pending_trim = self._trim_candidates()
             if self._pending_trim:
                 self._pending = ("trim", [c for _, c in self._pending_trim])
@@ -374,7 +381,8 @@ class VariationalGA(FormSearch, FormMoves, Method):
         members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]
         members += [_Member(list(m.variations), m.bits.copy()) for m in self.pop[1:]]
         if self._stalled(best) or self._island_over(best):
-            members = self._restart(members, best)
+            if self._island_over(best) or not self._resweep_due(best):
+                members = self._restart(members, best)
         return members
 
     # -- parameter refinement (synthesis.methods.refinement) -------------------------------

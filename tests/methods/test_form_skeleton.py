@@ -208,3 +208,50 @@ def test_sweep_keep_lets_only_the_best_swept_forms_join():
     assert ga.stats["swept_forms"] == 2
     with pytest.raises(SettingError, match="refine.sweep_keep"):
         RefineConfig(sweep_keep=-1)
+
+
+def _phases_to_stall(ga, evaluations: int) -> list:
+    """Fly ``ga`` on the toy objective for ``evaluations`` more flights; the phases flown."""
+    from test_screen import _toy
+    phases, end = [], ga.evaluations + evaluations
+    while ga.evaluations < end:
+        members = ga.ask()
+        phases.append(ga._pending[0])
+        ga.tell(_toy([c.law for c in members]))
+    return phases
+
+
+def test_resweep_sweeps_the_stalled_best_laws_neighbourhood_once_then_restarts():
+    """``[refine] resweep = 1``: after the first sweep the toy's ssqrt form sits at its
+    closed-form optimum (0.5), so the search stalls (ga restart_epochs = 2 epochs without a
+    10 % gain).  At that stall the best law becomes the basis and its neighbourhood is swept
+    (flown right after the epoch's population) instead of an island; at the next stall of the
+    same best form the search restarts as without the setting (an island)."""
+    from test_screen import _toy
+    ga = _swept_ga(0, resweep=1)
+    ga.tell(_toy([ga.candidate(m).law for m in ga._pending[1]]))    # the first sweep
+    phases = _phases_to_stall(ga, 4000)
+    k = phases.index("sweep")                       # the resweep: right after an epoch
+    assert phases[k - 1] == "epoch" and ga.stats["resweeps"] == 1
+    # its centre: the best law's form (the ssqrt form), which was the epoch's new basis
+    assert ga.stats["sweep_centres"] == [NEW["ssqrt"][1]]
+    assert phases.count("sweep") == 1               # one sweep per form, resweep = 1
+    assert ga.stats.get("islands", 0) >= 1          # the next stall: an island
+    # a checkpoint after the resweep resumes to the same future (the centres in its stats)
+    while not ga.at_boundary():
+        ga.tell(_toy([c.law for c in ga.ask()]))
+    st = ga.state()
+    again = _swept_ga(0, resweep=1).load_state(st)
+    assert again.stats["sweep_centres"] == ga.stats["sweep_centres"]
+    assert _phases_to_stall(again, 600) == _phases_to_stall(ga, 600)
+    assert np.array_equal(again.F, ga.F)
+    for key in ("resweeps", "sweep_centres", "islands", "swept_forms"):
+        assert again.stats.get(key) == ga.stats.get(key), key
+    # without the setting the first stall makes the island: the same run, no second sweep
+    off = _swept_ga(0)
+    off.tell(_toy([off.candidate(m).law for m in off._pending[1]]))
+    phases_off = _phases_to_stall(off, 4000)
+    assert "sweep" not in phases_off and "resweeps" not in off.stats
+    assert off.stats.get("islands", 0) >= 1
+    with pytest.raises(SettingError, match="refine.resweep"):
+        RefineConfig(resweep=-1)
