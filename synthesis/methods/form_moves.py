@@ -158,12 +158,13 @@ class FormMoves:
             return []
         return out
 
-    def _resweep_due(self, best) -> bool:
+    def _claim_resweep(self, best) -> bool:
         """Whether a stalled search sweeps the neighbourhood of its best law ``best`` (the
         epoch's new basis) instead of restarting (``refine resweep``): sweeps left, ``best``'s
         form not swept before and flights left for two epochs (the sweep counted as one; one
         that turns out not to fit when its forms are counted is not flown, and the search goes
-        on to its next stall).  The sweep starts when the epoch's population is flown."""
+        on to its next stall).  If so, the form is recorded as a sweep centre and the sweep
+        is marked to start when the epoch's population is flown."""
         n = self.refine_cfg.resweep
         if not n or not self.refine_cfg.sweep or self.stats.get("resweeps", 0) >= n \
                 or not self._room(SWEEP_EPOCHS + 1):

@@ -380,9 +380,9 @@ class VariationalGA(FormSearch, FormMoves, Method):
         self.q0 = self.params.decode(best.bits)
         members = [_Member([StructureCodec.IDENTITY] * self._lchr, best.bits.copy())]
         members += [_Member(list(m.variations), m.bits.copy()) for m in self.pop[1:]]
-        if self._stalled(best) or self._island_over(best):
-            if self._island_over(best) or not self._resweep_due(best):
-                members = self._restart(members, best)
+        stalled, over = self._stalled(best), self._island_over(best)
+        if over or (stalled and not self._claim_resweep(best)):
+            members = self._restart(members, best)
         return members
 
     # -- parameter refinement (synthesis.methods.refinement) -------------------------------

@@ -210,7 +210,7 @@ def test_sweep_keep_lets_only_the_best_swept_forms_join():
         RefineConfig(sweep_keep=-1)
 
 
-def _phases_to_stall(ga, evaluations: int) -> list:
+def _fly_phases(ga, evaluations: int) -> list:
     """Fly ``ga`` on the toy objective for ``evaluations`` more flights; the phases flown."""
     from test_screen import _toy
     phases, end = [], ga.evaluations + evaluations
@@ -230,7 +230,7 @@ def test_resweep_sweeps_the_stalled_best_laws_neighbourhood_once_then_restarts()
     from test_screen import _toy
     ga = _swept_ga(0, resweep=1)
     ga.tell(_toy([ga.candidate(m).law for m in ga._pending[1]]))    # the first sweep
-    phases = _phases_to_stall(ga, 4000)
+    phases = _fly_phases(ga, 4000)
     k = phases.index("sweep")                       # the resweep: right after an epoch
     assert phases[k - 1] == "epoch" and ga.stats["resweeps"] == 1
     # its centre: the best law's form (the ssqrt form), which was the epoch's new basis
@@ -243,14 +243,14 @@ def test_resweep_sweeps_the_stalled_best_laws_neighbourhood_once_then_restarts()
     st = ga.state()
     again = _swept_ga(0, resweep=1).load_state(st)
     assert again.stats["sweep_centres"] == ga.stats["sweep_centres"]
-    assert _phases_to_stall(again, 600) == _phases_to_stall(ga, 600)
+    assert _fly_phases(again, 600) == _fly_phases(ga, 600)
     assert np.array_equal(again.F, ga.F)
     for key in ("resweeps", "sweep_centres", "islands", "swept_forms"):
         assert again.stats.get(key) == ga.stats.get(key), key
     # without the setting the first stall makes the island: the same run, no second sweep
     off = _swept_ga(0)
     off.tell(_toy([off.candidate(m).law for m in off._pending[1]]))
-    phases_off = _phases_to_stall(off, 4000)
+    phases_off = _fly_phases(off, 4000)
     assert "sweep" not in phases_off and "resweeps" not in off.stats
     assert off.stats.get("islands", 0) >= 1
     with pytest.raises(SettingError, match="refine.resweep"):
