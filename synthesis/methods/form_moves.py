@@ -1,7 +1,7 @@
 """Moves of the structure search beside the lab's variational GA (a mixin of
 :class:`~synthesis.methods.variational_ga.VariationalGA`): the lab's elite step (prefixes of
 the variation lists of a few Pareto members, ``elite_trim``), the neighbourhood sweep of the
-tuned basic law (``refine sweep``, ``sweep_products``), where a random structure variation
+tuned basic law (``refine sweep``, ``sweep_products``, ``sweep_coupling``), where a random structure variation
 lands (``ga arc_ops``) and how its kind and operation are drawn (``ga credit``), and the polish
 of the best law at the end of the flight budget (``refine polish``).  The last three are
 settings, off by default; docs/benchmarks/suite.md (search15 to search21) records what each
@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from descent_fmus.synthesis.methods.encoding import StructureCodec
+from descent_fmus.synthesis.methods.form_algebra import upstream
 from descent_fmus.synthesis.methods.pareto import dominance_counts
 
 __all__ = ["CREDIT_DECAY", "FormMoves", "SWEEP_EPOCHS"]
@@ -124,10 +125,13 @@ class FormMoves:
         search ends: every form one changed unary operation away from the tuned basic law
         (each arc of its matrix, each operation of the structure's set, in matrix order),
         then with ``sweep_products`` every form one added arc away that brings an input
-        (through each operation) into a product node it does not feed; each taken once per
+        (through each operation) into a product node it does not feed, and with
+        ``sweep_coupling`` one that brings another output's node into one
+        (:meth:`_coupling_moves`); each taken once per
         skeleton (:func:`form_skeleton`: not the basic law's, nor another neighbour's) and
         flown with the basic law's constants scaled as the screening does
-        (:meth:`_scaled_rows`: the first ``sweep``, or ``sweep_products``, pairs).  Reads no
+        (:meth:`_scaled_rows`: the first ``sweep``, ``sweep_products`` or ``sweep_coupling``
+        pairs).  Reads no
         random numbers; each candidate's form is kept for :meth:`_finish_sweep`.  None when
         the flights left after them would not hold ``SWEEP_EPOCHS`` epochs of the structure
         search: the swept forms are tuned by the halving after an epoch."""
@@ -145,6 +149,7 @@ class FormMoves:
                       for j in np.flatnonzero(np.diag(psi) == 2)      # 2: a product node
                       for i in range(self.structure.n_sources - self.params.n)
                       if i < j and not psi[i, j] for op in self.structure.unary]
+        moves += self._coupling_moves(psi, basis)
         for kind, i, j, op, times in moves:
             m = type(basis)([(kind, i, j, op)] + list(basis.variations[1:]), basis.bits.copy())
             if (sk := self._skeleton(m)) not in seen:
@@ -157,6 +162,24 @@ class FormMoves:
             self._sweep_k = []
             return []
         return out
+
+    def _coupling_moves(self, psi, basis) -> list:
+        """With ``sweep_coupling``: the sweep's moves that bring an output's node (before the
+        bound), through each unary operation, into every product node of another output's
+        law that it does not feed (the matrix is upper triangular: a later output's), as
+        ``(2, node, product, op, flights)``."""
+        times = self.refine_cfg.sweep_coupling
+        if not times:
+            return []
+        law = self.decode(psi, self.params.decode(basis.bits))
+        ends = [int(o) - 1 for o in getattr(law, "outputs", ())]
+        moves = []
+        for j in np.flatnonzero(np.diag(psi) == 2):         # 2: a product node
+            feeds = upstream(psi, [int(j)])
+            moves += [(2, o, int(j), int(op), times) for o in ends
+                      if o < j and not feeds[o]
+                      for op in self.structure.unary]
+        return moves
 
     def _claim_resweep(self, best) -> bool:
         """Whether a stalled search sweeps the neighbourhood of its best law ``best`` (the
@@ -179,7 +202,8 @@ class FormMoves:
 
     def _finish_sweep(self, members) -> None:
         """The best flight of each swept form joins the population as a child does -- a form
-        of ``sweep_products`` (its move an added arc, kind 2) only when it beats the tuned
+        of ``sweep_products`` or ``sweep_coupling`` (its move an added arc, kind 2) only when
+        it beats the tuned
         basic law; with ``sweep_keep``, only that many forms, the best by the target (ties:
         the sweep's order)."""
         best, basis = {}, self.pop[0]

@@ -123,6 +123,15 @@ class RefineConfig:
                                      "such a form joins the population only when it beats "
                                      "the tuned basic law (0 = off; default 8 in a problem "
                                      "file, 0 for a registered system)", 0, 12)
+    sweep_coupling: int = setting(0, "with `sweep`: the sweep also flies every form one "
+                                     "added arc away that brings another output's value "
+                                     "(its node before the bound), through each unary "
+                                     "operation, into a product node of a later output that "
+                                     "it does not feed (one control's term times a function "
+                                     "of another control: the law switches with the other's "
+                                     "sign), this many times each; such a form joins the "
+                                     "population only when it beats the tuned basic law "
+                                     "(0 = off; a law of one output has none)", 0, 12)
     sweep_keep: int = setting(0, "of the swept forms (`sweep`), only this many join the "
                                  "population: the best by the target's value of their best "
                                  "flight (0 = every one)", 0, 10_000)

@@ -186,6 +186,52 @@ def test_sweep_products_adds_each_input_into_each_product_it_does_not_feed():
         RefineConfig(sweep_products=13)
 
 
+def test_sweep_coupling_brings_an_output_into_the_products_of_a_later_one():
+    """``[refine] sweep_coupling = 4`` on a two-output linear law (hand count of
+    NetworkOperator.linear's layout, 24 nodes: inputs 0-1, constants 2-7, output 1's products
+    8 and 9, its sum 10 and chain 11-15, output 2's products 16 and 17, its sum 18 and chain
+    19-23): output 1's node 15 through each unary operation (id, ssqrt, sgn) into output 2's
+    products 16 and 17, 6 forms of 4 flights each, after the one-operation sweep's flights
+    (the same as without the setting); a one-output law has none."""
+    from descent_fmus.synthesis.methods.encoding import GrayCodec
+    from descent_fmus.synthesis.methods.ga_config import GAConfig
+    from descent_fmus.synthesis.methods.law import NetworkOperator
+    from descent_fmus.synthesis.methods.pareto import Target
+    from descent_fmus.synthesis.methods.variational_ga import VariationalGA
+    law = NetworkOperator.linear([[-0.5, 0.0], [0.0, -1.0]], [0.0, 0.0],
+                                 bounds=[(-1.0, 1.0), (-3.0, 3.0)], size=24)
+    assert list(law.outputs) == [16, 24]
+
+    def swept(**refine):
+        ga = VariationalGA(GrayCodec(6, 11, 31, -1024.0, 1024.0), law.q,
+                           np.random.default_rng(7), GAConfig(population=16, crossovers=4,
+                                                              lchr=2, epoch=2),
+                           StructureCodec(24, 8, (1, 4, 10), (1, 2)), law.psi,
+                           law.with_structure, target=Target(0),
+                           refine=RefineConfig(basis=16, evals=40, forms=4, sweep=8, **refine),
+                           flights=0)
+        while ga.refinement.active or not ga.pop:
+            cands = ga.ask()      # any objective of the laws: the sum of their squared q
+            ga.tell(np.array([[float(np.sum(np.square(c.law.q)))] for c in cands]))
+        return ga._pending[1]
+
+    plain, coupled = swept(), swept(sweep_coupling=4)
+    n = len(plain)
+    assert len(coupled) == n + 6 * 4
+    assert [m.variations for m in coupled[:n]] == [m.variations for m in plain]
+    assert [m.variations[0] for m in coupled[n::4]] == [
+        (2, 15, 16, 1), (2, 15, 16, 4), (2, 15, 16, 10),
+        (2, 15, 17, 1), (2, 15, 17, 4), (2, 15, 17, 10)]
+    # the first: output 2's term q x0 times output 1's value (x0 and x1 are inputs 0 and 1)
+    psi = StructureCodec(24, 8).apply(law.psi, [(2, 15, 16, 1)])
+    assert form_skeleton(psi, 2, 6, law.outputs).split("; ")[1] == \
+        "+[*[+[c,x0,x1],x0],c,x1]"
+    one = [m.variations for m in _swept_ga(0, sweep_coupling=4)._pending[1]]
+    assert one == [m.variations for m in _swept_ga(0)._pending[1]]      # one output: none
+    with pytest.raises(SettingError, match="refine.sweep_coupling"):
+        RefineConfig(sweep_coupling=13)
+
+
 def test_sweep_keep_lets_only_the_best_swept_forms_join():
     """``[refine] sweep_keep = 2``: of the 10 swept forms of the test above, only the two
     whose best flight is lowest (the oracle: the toy values of the flights, grouped by form
