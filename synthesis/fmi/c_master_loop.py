@@ -26,6 +26,7 @@ import os
 import shutil
 import tempfile
 import threading
+import time
 from pathlib import Path
 
 import numpy as np
@@ -163,6 +164,12 @@ class CMasterLoop:
     def __init__(self, wiring: Wiring, plant_fmu, controller_fmu, initial=()):
         self._dll = _dll(master_library())
         self.wiring, self._m, self.initial = wiring, None, tuple(initial)
+        self._files = (plant_fmu, controller_fmu)
+        self._twin = None             # a second master: flies a batch's second half (split)
+        self._helper = None
+        #: seconds the twin flew beside this thread, less this thread's waits for it, summed
+        #: over every split batch: with a batch's wall time, its flights' compute time
+        self.twin_seconds = 0.0
         self._tmp = tempfile.mkdtemp(prefix="descent_c_master_")
         try:
             self._open(wiring, plant_fmu, controller_fmu)
@@ -170,16 +177,23 @@ class CMasterLoop:
             self.close()
             raise
 
-    def _open(self, wiring: Wiring, plant_fmu, controller_fmu) -> None:
-        p, c = _Fmu(plant_fmu, "plant", self._tmp), _Fmu(controller_fmu, "controller", self._tmp)
-        self._fmus = {"plant": p, "controller": c}
-        self._m = self._dll.dm_open(str(p.binary).encode(), p.md.guid.encode(),
-                                    p.resources.encode(), str(c.binary).encode(),
-                                    c.md.guid.encode(), c.resources.encode())
-        if not self._m:
+    def _master(self, folder: str) -> tuple:
+        """``(plant, controller, master)``: the two FMUs extracted into ``folder`` and loaded
+        by a new C master (its own instances)."""
+        plant_fmu, controller_fmu = self._files
+        p, c = _Fmu(plant_fmu, "plant", folder), _Fmu(controller_fmu, "controller", folder)
+        m = self._dll.dm_open(str(p.binary).encode(), p.md.guid.encode(),
+                              p.resources.encode(), str(c.binary).encode(),
+                              c.md.guid.encode(), c.resources.encode())
+        if not m:
             raise MemoryError("the C master could not allocate its state")
+        return p, c, m
+
+    def _open(self, wiring: Wiring, plant_fmu, controller_fmu) -> None:
+        p, c, self._m = self._master(self._tmp)
+        self._fmus = {"plant": p, "controller": c}
         self._check(f"{wiring.name} (native-c): loading the FMUs")
-        self._wire(wiring, p, c)
+        self._wire(wiring, p, c, self._m)
         self._layouts = Layouts(self._lookup, wiring.name)
         self._none = _Values()
         outs = {t: [v for v in p.md.modelVariables if v.causality == "output" and v.type == t]
@@ -204,7 +218,7 @@ class CMasterLoop:
                                  a(vr["initial"]), a(self._first_buf))
         self._steps, self._stopped = ctypes.c_long(), ctypes.c_int()
 
-    def _wire(self, w: Wiring, p: _Fmu, c: _Fmu) -> None:
+    def _wire(self, w: Wiring, p: _Fmu, c: _Fmu, m) -> None:
         y = _uint_array([p.var(a).valueReference for a, _ in w.to_controller])
         x = _uint_array([c.var(b).valueReference for _, b in w.to_controller])
         u = _uint_array([c.var(a).valueReference for a, _ in w.to_plant])
@@ -216,24 +230,26 @@ class CMasterLoop:
                 raise KeyError(not_an_output(p.md, w.stop.output))
             stop_type, stop_vr = STOP_TYPES.get(sv.type, 1), sv.valueReference
             stop_op, stop_value, check = STOP_OPS[w.stop.op], w.stop.value, w.stop.check_every
-        if self._dll.dm_wire(self._m, len(w.to_controller), y, x, len(w.to_plant), u, pu,
+        if self._dll.dm_wire(m, len(w.to_controller), y, x, len(w.to_plant), u, pu,
                              w.step, stop_type, stop_vr, stop_op, stop_value, check):
-            self._check(f"{w.name} (native-c): wiring")
+            self._check(f"{w.name} (native-c): wiring", m)
 
     def _lookup(self, role: str):
         fmu = self._fmus[role]
         return lambda name: (fmu.vars.get(name), fmu.starts.get(name))
 
-    def _said(self) -> str:
-        return (self._dll.dm_message(self._m) or b"").decode(errors="replace")
+    def _said(self, m=None) -> str:
+        """The message of master ``m`` (default this loop's) about its last failed call."""
+        return (self._dll.dm_message(self._m if m is None else m) or b"").decode(
+            errors="replace")
 
     def _failure(self, what: str) -> FMUError:
         """The error of the call that just failed, with the master's message if it has one."""
         said = self._said()
         return FMUError(f"{what} failed: {said}" if said else f"{what} failed")
 
-    def _check(self, what: str) -> None:
-        said = self._said()
+    def _check(self, what: str, m=None) -> None:
+        said = self._said(m)
         if said:
             raise FMUError(f"{what} failed: {said}")
 
@@ -343,9 +359,49 @@ class CMasterLoop:
             return None
         return lay.fill_many(np.stack([r[1] for r in rows]))
 
+    def split(self) -> bool:
+        """Fly every batch of two or more flights in two threads from now on: the first half
+        here, the second by a second C master (the FMUs extracted again and loaded by it: the
+        masters' instances share no state) in a helper thread, each half one ``dm_fly_many``
+        call with the GIL released; the start values are packed and the results read once,
+        here.  A flight depends on its start values only, so every result is the one a single
+        thread gives.  False (one thread goes on) when the second master cannot be opened."""
+        if self._twin is not None:
+            return True
+        if self._m is None:
+            return False
+        from concurrent.futures import ThreadPoolExecutor
+        m = None
+        try:
+            p, c, m = self._master(os.path.join(self._tmp, "twin"))
+            self._check(f"{self.wiring.name} (native-c): loading the FMUs again", m)
+            self._wire(self.wiring, p, c, m)
+        except (FMUError, KeyError, OSError, MemoryError):
+            if m:
+                self._dll.dm_close(m)
+            shutil.rmtree(os.path.join(self._tmp, "twin"), ignore_errors=True)
+            return False
+        self._twin = m
+        self._helper = ThreadPoolExecutor(1, thread_name_prefix="descent-c-master")
+        return True
+
+    def _fly_range(self, m, lo: int, hi: int, args) -> dict:
+        """Flights ``lo .. hi - 1`` of a packed batch on master ``m`` (this loop's or its
+        twin's): ``dm_fly_many``, again after each failed flight from the next one; the
+        failed flights' indices and the master's message for each."""
+        failed, k = {}, lo
+        while k < hi:
+            k = self._dll.dm_fly_many(m, k, hi, *args)
+            if k < hi:
+                said = (self._dll.dm_message(m) or b"").decode(errors="replace")
+                failed[k] = said
+                k += 1
+        return failed
+
     def _fly_packed(self, flights, plant, ctrl, t_end: float) -> list:
         """The flights of a packed batch (no refused values): one ``dm_fly_many`` call, again
-        after each failed flight from the next one."""
+        after each failed flight from the next one; split in two threads after
+        :meth:`split`."""
         w, n, a = self.wiring, len(flights), ctypes.addressof
         o = self._outputs
         bufs = {"Real": np.zeros((n, max(o.nr, 1))), "Integer": np.zeros((n, max(o.ni, 1)),
@@ -358,13 +414,23 @@ class CMasterLoop:
                         bufs["Integer"].ctypes.data, bufs["Boolean"].ctypes.data, o.n0, o.vr0,
                         first.ctypes.data)
         pv, cv = (_BatchValues(*(x.ctypes.data for x in arrays)) for arrays in (plant, ctrl))
-        failed, k = {}, 0
-        while k < n:
-            k = self._dll.dm_fly_many(self._m, k, n, t_end, a(pv), a(cv), a(outs),
-                                      steps.ctypes.data, stopped.ctypes.data)
-            if k < n:
-                failed[k] = self._failure(f"{w.name} (native-c): the flight")
-                k += 1
+        args = (t_end, a(pv), a(cv), a(outs), steps.ctypes.data, stopped.ctypes.data)
+        half = n // 2 if self._twin is not None and n > 1 else n
+        theirs = None
+        if half < n:        # the rows written are disjoint; the packed values are only read
+            theirs = self._helper.submit(self._timed_range, self._twin, half, n, args)
+        try:
+            failed = self._fly_range(self._m, 0, half, args)
+        finally:
+            if theirs is not None:          # never leaves with the twin's flight running
+                t_mine = time.perf_counter()
+                failed_theirs, seconds = theirs.result()
+                self.twin_seconds += seconds - (time.perf_counter() - t_mine)
+        if theirs is not None:
+            failed.update(failed_theirs)
+        what = f"{w.name} (native-c): the flight"
+        failed = {k: FMUError(f"{what} failed: {said}" if said else f"{what} failed")
+                  for k, said in failed.items()}
         names = self._out_names
         ints = [(t, names[t], bufs[t].tolist()) for t in ("Integer", "Boolean") if names[t]]
         reals, steps_l, stopped_l = bufs["Real"].tolist(), steps.tolist(), stopped.tolist()
@@ -380,7 +446,18 @@ class CMasterLoop:
             out.append(self._result(final, stopped_l[i], steps_l[i], t_end, pvals, firsts[i]))
         return out
 
+    def _timed_range(self, m, lo: int, hi: int, args) -> tuple:
+        t0 = time.perf_counter()
+        failed = self._fly_range(m, lo, hi, args)
+        return failed, time.perf_counter() - t0
+
     def close(self) -> None:
+        helper, self._helper = self._helper, None
+        if helper is not None:
+            helper.shutdown(wait=True)
+        twin, self._twin = self._twin, None
+        if twin:
+            self._dll.dm_close(twin)
         m, self._m = self._m, None
         if m:
             self._dll.dm_close(m)

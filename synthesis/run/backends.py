@@ -15,13 +15,12 @@ The parent's waits honour a requested stop (:func:`synthesis.run.signals.check_s
 from __future__ import annotations
 
 import abc
-import contextlib
 import math
 import multiprocessing
 import os
 import signal
 import time
-from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, ThreadPoolExecutor
+from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor
 from concurrent.futures import wait as wait_futures
 from pathlib import Path
 from concurrent.futures.process import BrokenProcessPool
@@ -48,13 +47,13 @@ TASK_DISPATCH = {"pool": 0.0, "dask": 0.009}
 #: [choice] A local pool flies a batch of at most this many laws in the parent process (the
 #: same flyer on the same FMUs): a round trip to the workers costs more than the flights.
 SMALL_BATCH = 16
-#: [choice] A small batch flown in the parent goes in this many threads (2: halves in order,
-#: each thread its own loaded C master, the GIL released in the C calls; where the flights do
-#: not go through the C master's batch, one thread).  One by default: in interleaved A/Bs at
-#: load 2-8 two threads cut the main thread's CPU by 17-26 % but not the process's (up 7-9 %
-#: in two triples of three) nor the search's wall (worse in two of three); they may pay on
-#: quiet cores, where the second core is idle while the parent flies a generation.
-HERE_THREADS = 1
+#: [choice] A small batch flown in the parent goes in this many threads: 2, its second half by
+#: a second C master in a helper thread (:meth:`LawFlyer.split
+#: <synthesis.run.flights.LawFlyer.split>`; the start values packed once, each half one C call
+#: with the GIL released); where the flights do not go through the C master's batch, one
+#: thread.  While the parent flies a CMA-ES generation the workers wait, so their cores are
+#: idle (docs/methods/run_loop.md, speed13).
+HERE_THREADS = 2
 #: Cost of one law's flights [s] assumed until the first batch has measured it.
 FIRST_GUESS_FLIGHT = 0.02
 
@@ -172,10 +171,8 @@ class ProcessPool(Backend):
         self._pids = self._ctx.SimpleQueue()
         self._known: set = set()
         self._here: LawFlyer | None = None          # flies small batches
-        self._apart: LawFlyer | None = None         # ... their second half, in a thread
-        self._thread: ThreadPoolExecutor | None = None
         self.small_batch = SMALL_BATCH                # (0: every batch goes to the workers)
-        self.here_threads = HERE_THREADS              # (2: their second half in a thread)
+        self.here_threads = HERE_THREADS              # (1: in this thread alone)
         self._pool = self._new_pool()
         # [choice] the workers start now (forked at the first task), loading their FMUs while
         # this process prepares the search, not when the first batch waits for them
@@ -221,37 +218,15 @@ class ProcessPool(Backend):
 
     def _fly_here(self, laws) -> list:
         """A small batch flown in this process: the workers' code on the same FMUs, so the
-        same outcomes, without a round trip to them (:data:`SMALL_BATCH`)."""
+        same outcomes, without a round trip to them (:data:`SMALL_BATCH`), in
+        :data:`HERE_THREADS` threads."""
         if self._here is None:
             self._here = LawFlyer(self.problem, *self.fmus)
-        if len(laws) > 1 and self.here_threads > 1 and self._here.batches():
-            out, seconds = self._fly_apart(laws)
-        else:
-            out, seconds = self._here.fly_timed(laws)
+            if self.here_threads > 1:
+                self._here.split()
+        out, seconds = self._here.fly_timed(laws)
         self.flight_seconds = seconds / max(len(laws), 1)
         return out
-
-    def _fly_apart(self, laws) -> tuple:
-        """``(results, compute seconds)`` of a small batch flown in two threads: the first
-        half here, the second by a second flyer (its own loaded FMUs) in a helper thread; the
-        results in the batch's order, each law's the same as flown alone (a flight depends on
-        its law and its initial state only).  The helper's flyer runs outside
-        :func:`~synthesis.run.signals.critical` (a counter of this thread's); this thread
-        holds the critical section until both halves are back, so a stop never ends the
-        FMUs under a flight."""
-        if self._apart is None:
-            self._apart = LawFlyer(self.problem, *self.fmus, guard=contextlib.nullcontext)
-            self._thread = ThreadPoolExecutor(1, thread_name_prefix="descent-flights")
-        if not self._apart.batches():             # its FMUs did not load: as one thread
-            return self._here.fly_timed(laws)
-        half = (len(laws) + 1) // 2
-        with critical():
-            theirs = self._thread.submit(self._apart.fly_timed, laws[half:])
-            try:
-                mine, s_mine = self._here.fly_timed(laws[:half])
-            finally:
-                got, s_theirs = theirs.result()
-        return mine + got, s_mine + s_theirs
 
     def _end_pool(self, wait: bool) -> None:
         pool, self._pool = self._pool, None
@@ -274,14 +249,9 @@ class ProcessPool(Backend):
 
     def close(self, wait: bool = True) -> None:
         self._end_pool(wait)
-        thread, self._thread = self._thread, None
-        if thread is not None:
-            thread.shutdown(wait=True)
-        for name in ("_here", "_apart"):
-            flyer = getattr(self, name)
-            setattr(self, name, None)
-            if flyer is not None:
-                flyer.close()
+        flyer, self._here = self._here, None
+        if flyer is not None:
+            flyer.close()
 
 
 def _signal(pid: int, sig) -> None:

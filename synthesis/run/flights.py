@@ -36,18 +36,15 @@ class LawFlyer:
     problem : SynthesisProblem
     plant, controller : str
         FMU files.
-    guard : callable
-        The context an FMU call runs in (default :func:`~synthesis.run.signals.critical`).
     """
 
     _alive: "weakref.WeakSet[LawFlyer]" = weakref.WeakSet()
 
-    def __init__(self, problem: SynthesisProblem, plant: str, controller: str,
-                 guard=critical):
+    def __init__(self, problem: SynthesisProblem, plant: str, controller: str):
         self.problem = problem
-        # the section an FMU call runs in: critical(), a counter of the main thread's; a
-        # flyer in a helper thread takes a null context (ProcessPool's small batches)
-        self.guard = guard
+        # the section an FMU call runs in (a split batch's second thread included: this
+        # thread holds it until both halves are back)
+        self.guard = critical
         self.fmus = (plant, controller)
         self.loop = None
         self.error = None
@@ -112,12 +109,21 @@ class LawFlyer:
         the GIL released in it: another thread's flyer flies at the same time)."""
         return self.loop is not None and self.problem.runner.batches(self.loop, self.problem)
 
+    def split(self) -> bool:
+        """Fly each batch in two threads from now on, where the loop can
+        (:meth:`CMasterLoop.split <synthesis.fmi.c_master_loop.CMasterLoop.split>`: the C
+        master's batches); whether it does."""
+        return self.batches() and self.loop.split()
+
     def fly_timed(self, laws) -> tuple:
         """``(results, seconds)``: the chunk's results and its compute time (the backends'
-        measure of the cost of a law)."""
+        measure of the cost of a law): the wall time, and after :meth:`split` what the second
+        thread flew beside this one."""
         t0 = time.perf_counter()
+        beside = getattr(self.loop, "twin_seconds", 0.0)
         out = self.fly_all(laws)
-        return out, time.perf_counter() - t0
+        beside = getattr(self.loop, "twin_seconds", 0.0) - beside
+        return out, time.perf_counter() - t0 + beside
 
     def remove_files(self) -> None:
         """Delete the extracted FMU folders (files only: no FMU call; safe in a signal
