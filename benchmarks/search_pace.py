@@ -15,7 +15,7 @@ skipped: ``--no-reference``) ``--repeat`` times and prints, per run and as media
 * the main process's CPU seconds over the whole command (``getrusage``, the workers not
   counted): the search's own work, less inflated by other jobs on the cores than its wall time;
   and its main thread's alone (``RUSAGE_THREAD``): the serial part, where the process's other
-  threads (the small batches' second flyer, the pool's threads, pycma's import) run beside it.
+  threads (the small batches' second C master, the pool's threads, pycma's import) run beside it.
 
 Timings are measured, never asserted; the machine's load average is printed beside them.
 
