@@ -95,6 +95,35 @@ def test_small_batch_in_two_threads_equals_one_thread(fmu_dir):
     assert loop._twin is None and not Path(loop._tmp).exists()      # closed with its loop
 
 
+def test_a_second_master_that_cannot_open_leaves_one_thread(fmu_dir, monkeypatch):
+    # the split's second C master fails to load (here: the FMUs' extraction raises, as a full
+    # disk would): split() says so, its folder goes, and the parent flies its small batches in
+    # one thread with the same outcomes (oracle: an evaluator whose split worked)
+    from descent_fmus.synthesis.fmi.c_master_loop import CMasterLoop
+    from descent_fmus.synthesis.fmi.slave import FMUError
+    rng = np.random.default_rng(3)
+    laws = [paper_basic_law(q=rng.uniform(0, 8, 2)) for _ in range(5)]
+    with Evaluator(REENTRY, fmu_dir, workers=2) as ev1:
+        want = ev1.backend.fly(laws)
+        assert ev1.backend._here.loop._twin is not None
+    opened = CMasterLoop._master
+
+    def refuse(self, folder):
+        if folder.endswith("twin"):
+            os.makedirs(folder, exist_ok=True)      # a half-extracted folder is left behind
+            raise FMUError("no room to extract the FMUs")
+        return opened(self, folder)
+
+    monkeypatch.setattr(CMasterLoop, "_master", refuse)
+    with Evaluator(REENTRY, fmu_dir, workers=2) as ev2:
+        got = ev2.backend.fly(laws)
+        loop = ev2.backend._here.loop
+        assert loop._twin is None and loop._helper is None
+        assert not Path(loop._tmp, "twin").exists()
+        assert loop.split() is False and loop.twin_seconds == 0.0
+    assert repr(got) == repr(want)                    # floats' repr: exact to the bit
+
+
 def test_local_worker_death_costs_no_candidate(fmu_dir):
     # a worker process of the local pool dies between batches: the batch fails with a broken
     # pool, a fresh pool is started and the candidates are retried -- same numbers, no penalty
