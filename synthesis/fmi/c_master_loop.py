@@ -172,7 +172,7 @@ class CMasterLoop:
         self.twin_seconds = 0.0
         self._tmp = tempfile.mkdtemp(prefix="descent_c_master_")
         try:
-            self._open(wiring, plant_fmu, controller_fmu)
+            self._open(wiring)
         except BaseException:
             self.close()
             raise
@@ -189,7 +189,7 @@ class CMasterLoop:
             raise MemoryError("the C master could not allocate its state")
         return p, c, m
 
-    def _open(self, wiring: Wiring, plant_fmu, controller_fmu) -> None:
+    def _open(self, wiring: Wiring) -> None:
         p, c, self._m = self._master(self._tmp)
         self._fmus = {"plant": p, "controller": c}
         self._check(f"{wiring.name} (native-c): loading the FMUs")
@@ -243,9 +243,10 @@ class CMasterLoop:
         return (self._dll.dm_message(self._m if m is None else m) or b"").decode(
             errors="replace")
 
-    def _failure(self, what: str) -> FMUError:
-        """The error of the call that just failed, with the master's message if it has one."""
-        said = self._said()
+    def _failure(self, what: str, m=None) -> FMUError:
+        """The error of the call that just failed, with the message of master ``m`` (default
+        this loop's) if it has one."""
+        said = self._said(m)
         return FMUError(f"{what} failed: {said}" if said else f"{what} failed")
 
     def _check(self, what: str, m=None) -> None:
@@ -388,13 +389,12 @@ class CMasterLoop:
     def _fly_range(self, m, lo: int, hi: int, args) -> dict:
         """Flights ``lo .. hi - 1`` of a packed batch on master ``m`` (this loop's or its
         twin's): ``dm_fly_many``, again after each failed flight from the next one; the
-        failed flights' indices and the master's message for each."""
+        failed flights' errors by index."""
         failed, k = {}, lo
         while k < hi:
             k = self._dll.dm_fly_many(m, k, hi, *args)
             if k < hi:
-                said = (self._dll.dm_message(m) or b"").decode(errors="replace")
-                failed[k] = said
+                failed[k] = self._failure(f"{self.wiring.name} (native-c): the flight", m)
                 k += 1
         return failed
 
@@ -402,7 +402,7 @@ class CMasterLoop:
         """The flights of a packed batch (no refused values): one ``dm_fly_many`` call, again
         after each failed flight from the next one; split in two threads after
         :meth:`split`."""
-        w, n, a = self.wiring, len(flights), ctypes.addressof
+        n, a = len(flights), ctypes.addressof
         o = self._outputs
         bufs = {"Real": np.zeros((n, max(o.nr, 1))), "Integer": np.zeros((n, max(o.ni, 1)),
                                                                           np.int32),
@@ -416,7 +416,7 @@ class CMasterLoop:
         pv, cv = (_BatchValues(*(x.ctypes.data for x in arrays)) for arrays in (plant, ctrl))
         args = (t_end, a(pv), a(cv), a(outs), steps.ctypes.data, stopped.ctypes.data)
         half = n // 2 if self._twin is not None and n > 1 else n
-        theirs = None
+        theirs, failed_theirs = None, {}
         if half < n:        # the rows written are disjoint; the packed values are only read
             theirs = self._helper.submit(self._timed_range, self._twin, half, n, args)
         try:
@@ -426,11 +426,7 @@ class CMasterLoop:
                 t_mine = time.perf_counter()
                 failed_theirs, seconds = theirs.result()
                 self.twin_seconds += seconds - (time.perf_counter() - t_mine)
-        if theirs is not None:
-            failed.update(failed_theirs)
-        what = f"{w.name} (native-c): the flight"
-        failed = {k: FMUError(f"{what} failed: {said}" if said else f"{what} failed")
-                  for k, said in failed.items()}
+        failed.update(failed_theirs)
         names = self._out_names
         ints = [(t, names[t], bufs[t].tolist()) for t in ("Integer", "Boolean") if names[t]]
         reals, steps_l, stopped_l = bufs["Real"].tolist(), steps.tolist(), stopped.tolist()

@@ -1,9 +1,10 @@
 """Moves of the structure search beside the lab's variational GA (a mixin of
 :class:`~synthesis.methods.variational_ga.VariationalGA`): the lab's elite step (prefixes of
 the variation lists of a few Pareto members, ``elite_trim``), the neighbourhood sweep of the
-tuned basic law (``refine sweep``, ``sweep_products``, ``sweep_coupling``), where a random structure variation
-lands (``ga arc_ops``) and how its kind and operation are drawn (``ga credit``), and the polish
-of the best law at the end of the flight budget (``refine polish``).  The last three are
+tuned basic law (``refine sweep``, ``sweep_products``, ``sweep_coupling``), where a random
+structure variation lands (``ga arc_ops``) and how its kind and operation are drawn (``ga
+credit``), and the polish of the best law at the end of the flight budget (``refine
+polish``).  The last three are
 settings, off by default; docs/benchmarks/suite.md (search15 to search21) records what each
 did.
 """
@@ -127,12 +128,10 @@ class FormMoves:
         then with ``sweep_products`` every form one added arc away that brings an input
         (through each operation) into a product node it does not feed, and with
         ``sweep_coupling`` one that brings another output's node into one
-        (:meth:`_coupling_moves`); each taken once per
-        skeleton (:func:`form_skeleton`: not the basic law's, nor another neighbour's) and
-        flown with the basic law's constants scaled as the screening does
-        (:meth:`_scaled_rows`: the first ``sweep``, ``sweep_products`` or ``sweep_coupling``
-        pairs).  Reads no
-        random numbers; each candidate's form is kept for :meth:`_finish_sweep`.  None when
+        (:meth:`_coupling_moves`); each taken once per skeleton (:func:`form_skeleton`: not
+        the basic law's, nor another neighbour's) and flown with the basic law's constants
+        scaled as the screening does (:meth:`_scaled_rows`: the first ``sweep``,
+        ``sweep_products`` or ``sweep_coupling`` pairs).  Reads no random numbers; each candidate's form is kept for :meth:`_finish_sweep`.  None when
         the flights left after them would not hold ``SWEEP_EPOCHS`` epochs of the structure
         search: the swept forms are tuned by the halving after an epoch."""
         self._sweep_k = []
@@ -203,8 +202,7 @@ class FormMoves:
     def _finish_sweep(self, members) -> None:
         """The best flight of each swept form joins the population as a child does -- a form
         of ``sweep_products`` or ``sweep_coupling`` (its move an added arc, kind 2) only when
-        it beats the tuned
-        basic law; with ``sweep_keep``, only that many forms, the best by the target (ties:
+        it beats the tuned basic law; with ``sweep_keep``, only that many forms, the best by the target (ties:
         the sweep's order)."""
         best, basis = {}, self.pop[0]
         for k, m in zip(self._sweep_k, members):

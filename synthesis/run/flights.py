@@ -42,9 +42,6 @@ class LawFlyer:
 
     def __init__(self, problem: SynthesisProblem, plant: str, controller: str):
         self.problem = problem
-        # the section an FMU call runs in (a split batch's second thread included: this
-        # thread holds it until both halves are back)
-        self.guard = critical
         self.fmus = (plant, controller)
         self.loop = None
         self.error = None
@@ -62,7 +59,7 @@ class LawFlyer:
         if self.loop is None:
             return None, self.error
         try:
-            with self.guard():
+            with critical():        # a split batch: held until both halves are back
                 return self.problem.fly(self.loop, law), None
         except Exception as exc:  # an FMU error costs this law only
             return None, _text(exc)
@@ -90,7 +87,7 @@ class LawFlyer:
         if self.loop is None or not hasattr(self.loop, "run_many"):
             return None
         problem, out = self.problem, []
-        with self.guard():
+        with critical():
             flown = problem.runner.batch_flights(self.loop, problem, laws)
             if flown is None:
                 return None
@@ -106,7 +103,7 @@ class LawFlyer:
 
     def batches(self) -> bool:
         """Whether this flyer flies its laws in batches of the C master (one C call a batch,
-        the GIL released in it: another thread's flyer flies at the same time)."""
+        the GIL released in it)."""
         return self.loop is not None and self.problem.runner.batches(self.loop, self.problem)
 
     def split(self) -> bool:
