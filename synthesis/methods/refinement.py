@@ -132,6 +132,10 @@ class RefineConfig:
                                      "sign), this many times each; such a form joins the "
                                      "population only when it beats the tuned basic law "
                                      "(0 = off; a law of one output has none)", 0, 12)
+    sweep_tune: int = setting(0, "with `sweep`: the halving tunes the swept forms as soon "
+                                 "as they are flown (as it does after a resweep or a change "
+                                 "of the input scales), not after the first epoch of the "
+                                 "structure search (0 = off)", 0, 1)
     sweep_keep: int = setting(0, "of the swept forms (`sweep`), only this many join the "
                                  "population: the best by the target's value of their best "
                                  "flight (0 = every one)", 0, 10_000)

@@ -428,6 +428,8 @@ class VariationalGA(FormSearch, FormMoves, Method):
             self._rescaled(self.rescale(self.candidate(self.pop[0]).law))
         if self._basis_refining and self._pending is None:
             self._start_sweep()
+            if self._pending is not None and self.refine_cfg.sweep_tune:
+                self._refine_due = True     # the halving once the swept forms are flown
         self._basis_refining = False
 
     def _rescaled(self, law) -> None:

@@ -256,6 +256,31 @@ def test_sweep_keep_lets_only_the_best_swept_forms_join():
         RefineConfig(sweep_keep=-1)
 
 
+def test_sweep_tune_starts_the_halving_on_the_swept_forms_at_once():
+    """``[refine] sweep_tune = 1``: once the sweep's flights are told, the next batch is the
+    halving's (no generation before it), whose first search starts from the best law -- the
+    swept ssqrt form at its closed-form optimum (toy value 0.5, as in the sweep test above);
+    a checkpoint taken between the sweep and the halving resumes to the same batch.  Off, the
+    first generation's children come first (the halving waits for the first epoch)."""
+    from test_screen import _toy
+    for tune, phase in ((1, "refine"), (0, "children")):
+        ga = _swept_ga(0, sweep_tune=tune)
+        assert ga._pending[0] == "sweep"
+        ga.tell(_toy([ga.candidate(m).law for m in ga._pending[1]]))
+        st = ga.state()
+        batch = [c.law.q for c in ga.ask()]
+        assert ga._pending[0] == phase and ga.generation == 0
+        if tune:
+            first = ga.refinement.searches[0]
+            assert first.best_f[0] == pytest.approx(0.5, abs=1e-12)
+            assert first.member == int(ga.target.order(ga.F, ga.CV)[0])
+            assert 2 <= len(ga.refinement.searches) <= 4      # and other forms (forms = 4)
+            again = _swept_ga(0, sweep_tune=tune).load_state(st)
+            assert [c.law.q for c in again.ask()] == batch
+    with pytest.raises(SettingError, match="refine.sweep_tune"):
+        RefineConfig(sweep_tune=2)
+
+
 def _fly_phases(ga, evaluations: int) -> list:
     """Fly ``ga`` on the toy objective for ``evaluations`` more flights; the phases flown."""
     from test_screen import _toy
