@@ -167,9 +167,11 @@ class CMasterLoop:
         self._files = (plant_fmu, controller_fmu)
         self._twin = None             # a second master: flies a batch's second half (split)
         self._helper = None
-        #: seconds the twin flew beside this thread, less this thread's waits for it, summed
+        #: seconds the twin flew beside this thread, less this thread's waits for it (at
+        #: least 0 a batch: a helper that starts late can wait longer than it flew), summed
         #: over every split batch: with a batch's wall time, its flights' compute time
         self.twin_seconds = 0.0
+        self.twin_flights = 0         #: flights the twin was given (split batches' halves)
         self._tmp = tempfile.mkdtemp(prefix="descent_c_master_")
         try:
             self._open(wiring)
@@ -419,13 +421,14 @@ class CMasterLoop:
         theirs, failed_theirs = None, {}
         if half < n:        # the rows written are disjoint; the packed values are only read
             theirs = self._helper.submit(self._timed_range, self._twin, half, n, args)
+            self.twin_flights += n - half
         try:
             failed = self._fly_range(self._m, 0, half, args)
         finally:
             if theirs is not None:          # never leaves with the twin's flight running
                 t_mine = time.perf_counter()
                 failed_theirs, seconds = theirs.result()
-                self.twin_seconds += seconds - (time.perf_counter() - t_mine)
+                self.twin_seconds += max(0.0, seconds - (time.perf_counter() - t_mine))
         failed.update(failed_theirs)
         names = self._out_names
         ints = [(t, names[t], bufs[t].tolist()) for t in ("Integer", "Boolean") if names[t]]

@@ -70,14 +70,16 @@ def test_local_pool_equals_in_process(fmu_dir):
 
 def test_small_batch_in_two_threads_equals_one_thread(fmu_dir):
     # a small batch flown in the parent goes in two threads (HERE_THREADS = 2: the second half
-    # of the packed flights by a second C master in a helper thread, the GIL
-    # released in each C call); oracle: the same laws flown one by one in one thread
+    # of the packed flights by a second C master in a helper thread, the GIL released in
+    # each C call); oracle: the same laws flown one by one in one thread
     # (InProcess) -- every outcome bit for bit, in order, a failing law (the FMU rejects its
-    # operation) in the twin's half included; and the parent's one-thread path
+    # operation) in each half included, the flights after it flown; and the parent's
+    # one-thread path
     from descent_fmus.synthesis.run.backends import HERE_THREADS
     rng = np.random.default_rng(7)
     laws = [paper_basic_law(q=rng.uniform(0, 8, 2)) for _ in range(7)]
-    laws[5].psi[0, 4] = 99                            # bypasses validation: the FMU rejects it
+    for k in (1, 5):                                  # one in each half (3 + 4 flights)
+        laws[k].psi[0, 4] = 99                        # bypasses validation: the FMU rejects it
     with Evaluator(REENTRY, fmu_dir) as ev1:
         one = [ev1.backend.flyer.fly(law) for law in laws]
     with Evaluator(REENTRY, fmu_dir, workers=2) as ev2, \
@@ -86,11 +88,13 @@ def test_small_batch_in_two_threads_equals_one_thread(fmu_dir):
         assert len(laws) <= ev2.backend.small_batch
         two = ev2.backend.fly(laws)
         loop = ev2.backend._here.loop
-        assert loop._twin is not None and loop.twin_seconds > 0.0   # the twin flew its half
+        assert loop._twin is not None and loop.twin_flights == 4    # the twin flew its half
         ev3.backend.here_threads = 1                  # the one-thread path of the parent
         assert ev3.backend.fly(laws) == two
         assert ev3.backend._here.loop._twin is None
-    assert two[5][0] is None and "unknown unary operation 99" in two[5][1]
+    for k in (1, 5):
+        assert two[k][0] is None and "unknown unary operation 99" in two[k][1]
+    assert all(two[k][0] is not None for k in (0, 2, 3, 4, 6))
     assert repr(one) == repr(two)                     # floats' repr: exact to the bit
     assert loop._twin is None and not Path(loop._tmp).exists()      # closed with its loop
 
@@ -120,7 +124,7 @@ def test_a_second_master_that_cannot_open_leaves_one_thread(fmu_dir, monkeypatch
         loop = ev2.backend._here.loop
         assert loop._twin is None and loop._helper is None
         assert not Path(loop._tmp, "twin").exists()
-        assert loop.split() is False and loop.twin_seconds == 0.0
+        assert loop.split() is False and loop.twin_seconds == 0.0 == loop.twin_flights
     assert repr(got) == repr(want)                    # floats' repr: exact to the bit
 
 
