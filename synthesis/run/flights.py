@@ -59,7 +59,7 @@ class LawFlyer:
         if self.loop is None:
             return None, self.error
         try:
-            with critical():        # a split batch: held until both halves are back
+            with critical():        # a stop waits for the flight's FMU calls
                 return self.problem.fly(self.loop, law), None
         except Exception as exc:  # an FMU error costs this law only
             return None, _text(exc)
@@ -87,7 +87,7 @@ class LawFlyer:
         if self.loop is None or not hasattr(self.loop, "run_many"):
             return None
         problem, out = self.problem, []
-        with critical():
+        with critical():            # a split batch: held until both halves are back
             flown = problem.runner.batch_flights(self.loop, problem, laws)
             if flown is None:
                 return None
